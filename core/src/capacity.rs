@@ -1,0 +1,39 @@
+//! Every fixed capacity of the core, in one place. Buffers are sized from these at compile time;
+//! exceeding one at run time is a reported [`Status`](crate::Status), never a panic and never a
+//! silent truncation.
+
+/// Largest chip width or height, px.
+pub const MAX_CHIP_SIDE: usize = 512;
+
+/// Largest number of chip pixels.
+pub const MAX_CHIP_PIXELS: usize = MAX_CHIP_SIDE * MAX_CHIP_SIDE;
+
+/// 32-bit words of a bit-packed mask of [`MAX_CHIP_PIXELS`] (32 KiB).
+pub const MASK_WORDS: usize = MAX_CHIP_PIXELS / 32;
+
+/// Default capacity of the run table of the connected-component labeler (8 bytes a run).
+pub const DEFAULT_MAX_RUNS: usize = 4096;
+
+/// Default capacity of the provisional-label table of the labeler (one statistics record each).
+pub const DEFAULT_MAX_LABELS: usize = 512;
+
+/// Largest number of components (of at least the minimum area) kept for target selection.
+pub const MAX_COMPONENTS: usize = 64;
+
+/// Largest number of components merged into one target (the main one and its fragments).
+pub const MAX_TARGET_PARTS: usize = 8;
+
+/// Side of a background-model tile, px.
+pub const BACKGROUND_TILE: usize = 32;
+
+/// Background tiles along one side of the largest chip.
+pub const MAX_TILES_PER_SIDE: usize = MAX_CHIP_SIDE.div_ceil(BACKGROUND_TILE);
+
+/// Samples of neighbour differences drawn for the noise estimate.
+pub const NOISE_SAMPLES: usize = 2048;
+
+/// Bins of the axial profile (1 px each): longer than the diagonal of the largest chip.
+pub const PROFILE_BINS: usize = 768;
+
+/// Frames in the temporal window (yaw disambiguation and Tz trend).
+pub const MAX_WINDOW: usize = 32;

@@ -1,0 +1,157 @@
+//! The chip: a borrowed 8-bit or 16-bit grayscale view, with its place in the full frame.
+
+use crate::capacity::MAX_CHIP_SIDE;
+
+/// Why a chip view could not be made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ChipError {
+    /// Width or height is zero.
+    Empty,
+    /// Width or height exceeds [`MAX_CHIP_SIDE`].
+    TooLarge,
+    /// The stride is smaller than the width.
+    BadStride,
+    /// The buffer is shorter than `stride * (height - 1) + width` samples.
+    ShortBuffer,
+}
+
+/// The samples of a chip.
+#[derive(Debug, Clone, Copy)]
+enum Samples<'a> {
+    Gray8(&'a [u8]),
+    Gray16(&'a [u16]),
+}
+
+/// A borrowed grayscale chip: `width` x `height` samples, rows `stride` samples apart, whose
+/// top-left pixel is full-frame pixel (`x0`, `y0`).
+#[derive(Debug, Clone, Copy)]
+pub struct ChipView<'a> {
+    samples: Samples<'a>,
+    width: usize,
+    height: usize,
+    stride: usize,
+    x0: i32,
+    y0: i32,
+}
+
+impl<'a> ChipView<'a> {
+    /// An 8-bit chip view.
+    pub fn gray8(
+        data: &'a [u8],
+        width: usize,
+        height: usize,
+        stride: usize,
+        x0: i32,
+        y0: i32,
+    ) -> Result<Self, ChipError> {
+        Self::checked(Samples::Gray8(data), data.len(), width, height, stride, x0, y0)
+    }
+
+    /// A 16-bit chip view.
+    pub fn gray16(
+        data: &'a [u16],
+        width: usize,
+        height: usize,
+        stride: usize,
+        x0: i32,
+        y0: i32,
+    ) -> Result<Self, ChipError> {
+        Self::checked(Samples::Gray16(data), data.len(), width, height, stride, x0, y0)
+    }
+
+    fn checked(
+        samples: Samples<'a>,
+        len: usize,
+        width: usize,
+        height: usize,
+        stride: usize,
+        x0: i32,
+        y0: i32,
+    ) -> Result<Self, ChipError> {
+        if width == 0 || height == 0 {
+            return Err(ChipError::Empty);
+        }
+        if width > MAX_CHIP_SIDE || height > MAX_CHIP_SIDE {
+            return Err(ChipError::TooLarge);
+        }
+        if stride < width {
+            return Err(ChipError::BadStride);
+        }
+        // Cannot overflow: height, width <= MAX_CHIP_SIDE and stride < len + 1 is checked below.
+        let needed = stride
+            .checked_mul(height - 1)
+            .and_then(|n| n.checked_add(width))
+            .ok_or(ChipError::ShortBuffer)?;
+        if len < needed {
+            return Err(ChipError::ShortBuffer);
+        }
+        Ok(ChipView {
+            samples,
+            width,
+            height,
+            stride,
+            x0,
+            y0,
+        })
+    }
+
+    /// Width, px.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height, px.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Full-frame x of the chip's left column, px.
+    pub fn x0(&self) -> i32 {
+        self.x0
+    }
+
+    /// Full-frame y of the chip's top row, px.
+    pub fn y0(&self) -> i32 {
+        self.y0
+    }
+
+    /// True for 16-bit samples.
+    pub fn is_16bit(&self) -> bool {
+        matches!(self.samples, Samples::Gray16(_))
+    }
+
+    /// The sample at column `x`, row `y`, or 0 outside the chip.
+    #[inline]
+    pub fn get(&self, x: usize, y: usize) -> u16 {
+        if x >= self.width || y >= self.height {
+            return 0;
+        }
+        let i = y * self.stride + x;
+        match self.samples {
+            Samples::Gray8(d) => d.get(i).map_or(0, |&v| u16::from(v)),
+            Samples::Gray16(d) => d.get(i).copied().unwrap_or(0),
+        }
+    }
+
+    /// Calls `f(x, value)` for every sample of row `y` (nothing for a row outside the chip).
+    #[inline]
+    pub fn for_each_in_row(&self, y: usize, mut f: impl FnMut(usize, u16)) {
+        if y >= self.height {
+            return;
+        }
+        let start = y * self.stride;
+        match self.samples {
+            Samples::Gray8(d) => {
+                if let Some(row) = d.get(start..start + self.width) {
+                    row.iter().enumerate().for_each(|(x, &v)| f(x, u16::from(v)));
+                }
+            }
+            Samples::Gray16(d) => {
+                if let Some(row) = d.get(start..start + self.width) {
+                    row.iter().enumerate().for_each(|(x, &v)| f(x, v));
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,49 @@
+//! The `imade-clip/1` recorded-clip format (../shared/spec/clip-format.md): the one place it is
+//! parsed and written.
+//!
+//! A clip is a folder with `clip.json` (camera and clip metadata), `frames.csv` (one row per frame)
+//! and the chips as 8-bit or 16-bit grayscale PNGs. Reading is per frame and lossless about errors:
+//! a malformed row or a corrupt chip is an error for that frame only.
+
+mod chip_image;
+mod frames;
+mod meta;
+mod writer;
+
+pub use chip_image::{ChipImage, ChipPixels, load_chip, load_mask};
+pub use frames::{FrameRow, FrameRowError, GroundTruth, read_frames};
+pub use meta::{CameraMeta, ChipSize, ClipMeta, FORMAT_ID, read_meta};
+pub use writer::{ClipWriter, write_atomically};
+
+use std::path::{Path, PathBuf};
+
+/// An opened clip: its folder, metadata and frame rows (each row parsed or its error).
+#[derive(Debug)]
+pub struct Clip {
+    /// The clip folder.
+    pub dir: PathBuf,
+    /// Parsed `clip.json`.
+    pub meta: ClipMeta,
+    /// One entry per data line of `frames.csv`, in file order.
+    pub frames: Vec<Result<FrameRow, FrameRowError>>,
+}
+
+impl Clip {
+    /// Opens a clip folder: reads `clip.json` and `frames.csv`. Fails only when the clip as a whole
+    /// cannot be read (missing or invalid metadata, unreadable `frames.csv`, missing columns);
+    /// a bad row is kept as that row's error.
+    pub fn open(dir: &Path) -> anyhow::Result<Clip> {
+        let meta = read_meta(&dir.join("clip.json"))?;
+        let frames = read_frames(&dir.join("frames.csv"))?;
+        Ok(Clip {
+            dir: dir.to_path_buf(),
+            meta,
+            frames,
+        })
+    }
+
+    /// The absolute path of a file named relative to the clip folder.
+    pub fn path_of(&self, relative: &str) -> PathBuf {
+        self.dir.join(relative)
+    }
+}
