@@ -45,7 +45,15 @@ impl<'a> ChipView<'a> {
         x0: i32,
         y0: i32,
     ) -> Result<Self, ChipError> {
-        Self::checked(Samples::Gray8(data), data.len(), width, height, stride, x0, y0)
+        Self::checked(
+            Samples::Gray8(data),
+            data.len(),
+            width,
+            height,
+            stride,
+            x0,
+            y0,
+        )
     }
 
     /// A 16-bit chip view.
@@ -57,7 +65,15 @@ impl<'a> ChipView<'a> {
         x0: i32,
         y0: i32,
     ) -> Result<Self, ChipError> {
-        Self::checked(Samples::Gray16(data), data.len(), width, height, stride, x0, y0)
+        Self::checked(
+            Samples::Gray16(data),
+            data.len(),
+            width,
+            height,
+            stride,
+            x0,
+            y0,
+        )
     }
 
     fn checked(
@@ -136,20 +152,37 @@ impl<'a> ChipView<'a> {
 
     /// Calls `f(x, value)` for every sample of row `y` (nothing for a row outside the chip).
     #[inline]
-    pub fn for_each_in_row(&self, y: usize, mut f: impl FnMut(usize, u16)) {
-        if y >= self.height {
+    pub fn for_each_in_row(&self, y: usize, f: impl FnMut(usize, u16)) {
+        self.for_each_in_span(y, 0, self.width, f);
+    }
+
+    /// Calls `f(x, value)` for the samples of row `y` in columns `x_start..x_end` (clipped to
+    /// the chip).
+    #[inline]
+    pub fn for_each_in_span(
+        &self,
+        y: usize,
+        x_start: usize,
+        x_end: usize,
+        mut f: impl FnMut(usize, u16),
+    ) {
+        let x_end = x_end.min(self.width);
+        if y >= self.height || x_start >= x_end {
             return;
         }
         let start = y * self.stride;
+        let span = start + x_start..start + x_end;
         match self.samples {
             Samples::Gray8(d) => {
-                if let Some(row) = d.get(start..start + self.width) {
-                    row.iter().enumerate().for_each(|(x, &v)| f(x, u16::from(v)));
+                if let Some(row) = d.get(span) {
+                    row.iter()
+                        .enumerate()
+                        .for_each(|(i, &v)| f(x_start + i, u16::from(v)));
                 }
             }
             Samples::Gray16(d) => {
-                if let Some(row) = d.get(start..start + self.width) {
-                    row.iter().enumerate().for_each(|(x, &v)| f(x, v));
+                if let Some(row) = d.get(span) {
+                    row.iter().enumerate().for_each(|(i, &v)| f(x_start + i, v));
                 }
             }
         }

@@ -116,7 +116,10 @@ mod tests {
         // projectile.md: rho = (R^2 + Ln^2) / (2R) = 0.740 m.
         assert!((m.ogive_rho_m() - 0.740).abs() < 1e-4);
         assert!(m.radius_at(0.0).abs() < 1e-4, "sharp tip");
-        assert!((m.radius_at(0.24) - 0.04).abs() < 1e-6, "tangent to the body");
+        assert!(
+            (m.radius_at(0.24) - 0.04).abs() < 1e-6,
+            "tangent to the body"
+        );
         assert!((m.radius_at(1.0) - 0.04).abs() < 1e-6);
         assert_eq!(m.radius_at(1.5), 0.0);
         // Hand value: s = 0.12 -> sqrt(0.5476 - 0.0144) + 0.04 - 0.74 = 0.030205.

@@ -91,7 +91,12 @@ mod tests {
         assert!((n - Vector3::new(-0.75, -0.5, 0.433013)).norm() < 2e-6);
         assert!((r.column(0) - n).norm() < 2e-6, "nose is R's first column");
 
-        let cam = Camera { fx: 100000.0, fy: 100000.0, cx: 1023.5, cy: 1023.5 };
+        let cam = Camera {
+            fx: 100000.0,
+            fy: 100000.0,
+            cx: 1023.5,
+            cy: 1023.5,
+        };
         let t = Vector3::new(3.0, -2.0, 1500.0);
         let cases = [
             (Vector3::new(0.689, 0.0, 0.0), (1189.017, 867.231)),
@@ -101,7 +106,10 @@ mod tests {
         ];
         for (b, (u, v)) in cases {
             let px = cam.project(&(t + r * b));
-            assert!((px.x - u).abs() < 2e-3 && (px.y - v).abs() < 2e-3, "{b:?} -> {px:?}");
+            assert!(
+                (px.x - u).abs() < 2e-3 && (px.y - v).abs() < 2e-3,
+                "{b:?} -> {px:?}"
+            );
         }
         let (p, y) = attitude_of(&n);
         assert!((p - 30.0).abs() < 1e-4 && (y + 60.0).abs() < 1e-4);

@@ -1,0 +1,124 @@
+//! Closed-form pose from the silhouette's measurements: the source paper's Eq. 1-2 made exact
+//! for chips away from the optical centre.
+//!
+//! The paper reads pitch and yaw from the projected axis: `H = L sin(pitch)`,
+//! `W = L cos(pitch) sin(yaw)`, `L` the full length in px at the target's distance. Here the same
+//! relation is solved in the line-of-sight frame of the body origin (whose z axis is the ray
+//! through it): the nose-tail vector's components across the line of sight are the measured
+//! angular offsets times the slant range, and its component along it is `±sqrt(L² - |Δ|²)`, the
+//! two signs being the two yaw candidates of the paper's Eq. 3. Rotating back to the camera frame
+//! gives pitch and yaw without the error of treating the line of sight as the optical axis (up to
+//! half the field of view, 0.6° for the 2048 px, 100000 px-focal camera).
+//!
+//! The measured ends are first corrected with the model: the nose tip for the ogive's curvature
+//! ([`ProjectileModel::nose_ramp_zero_offset_m`]) and the tail edge for the base, whose
+//! foreshortened disc reaches `R |cos(aspect)|` beyond the base centre (its half-width point
+//! at `0.866 R |cos(aspect)|`).
+
+use crate::camera::{Camera, line_of_sight_frame};
+use crate::extremes::{NOSE_RAMP, Silhouette};
+use crate::model::ProjectileModel;
+use crate::pose::{DEG, attitude_of};
+use nalgebra::{Vector2, Vector3};
+
+/// Where the width of a foreshortened disc falls to half, in radii from its centre.
+const DISC_HALF_WIDTH_REACH: f32 = 0.866;
+
+/// Iterations of the end corrections, which depend on the aspect angle being solved for.
+const END_CORRECTION_ITERATIONS: usize = 4;
+
+/// Pitch and yaw of one candidate, deg.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Attitude {
+    /// Pitch, deg.
+    pub pitch_deg: f32,
+    /// Yaw, deg.
+    pub yaw_deg: f32,
+}
+
+/// The closed-form solution.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ClosedForm {
+    /// Body origin in C, m.
+    pub translation: [f32; 3],
+    /// The two mirror candidates: `[0]` with the nose pointing away along the line of sight
+    /// (range growing in nose-first flight), `[1]` with it pointing towards the camera.
+    pub candidates: [Attitude; 2],
+    /// Angle between the body axis and the line of sight, deg, in [0, 90].
+    pub aspect_deg: f32,
+}
+
+/// The silhouette's ends in full-frame px, for a chip whose top-left is `origin`.
+fn ends(
+    sil: &Silhouette,
+    origin: (i32, i32),
+    nose_t: f32,
+    tail_t: f32,
+) -> (Vector2<f32>, Vector2<f32>) {
+    let o = Vector2::new(origin.0 as f32, origin.1 as f32);
+    let (nx, ny) = sil.axis.point(nose_t);
+    let (tx, ty) = sil.axis.point(tail_t);
+    (o + Vector2::new(nx, ny), o + Vector2::new(tx, ty))
+}
+
+/// Slant range to the body from its apparent diameter, m.
+pub fn range_from_diameter(
+    sil: &Silhouette,
+    camera: &Camera,
+    model: &ProjectileModel,
+) -> Option<f32> {
+    let across = Vector2::new(-sil.axis.dir.1, sil.axis.dir.0);
+    let angular = camera.normalized_length(sil.diameter_px, across);
+    let range = model.diameter_m / angular;
+    (range.is_finite() && range > 0.0).then_some(range)
+}
+
+/// Solves the pose at slant range `range_m` from the silhouette of a chip whose top-left pixel is
+/// full-frame `origin`.
+pub fn solve(
+    sil: &Silhouette,
+    origin: (i32, i32),
+    camera: &Camera,
+    model: &ProjectileModel,
+    range_m: f32,
+) -> ClosedForm {
+    let length = model.length_m;
+    let nose_offset_m = model.nose_ramp_zero_offset_m(NOSE_RAMP.0, NOSE_RAMP.1);
+    let dir = Vector2::new(sil.axis.dir.0, sil.axis.dir.1);
+    // Pixels per metre across the line of sight, along the image axis.
+    let px_per_m = 1.0 / (range_m * camera.normalized_length(1.0, dir)).max(f32::MIN_POSITIVE);
+    let (mut sin_a, mut cos_a) = (1.0f32, 0.0f32);
+    let mut delta = Vector2::zeros();
+    let mut frame = line_of_sight_frame(Vector2::zeros());
+    for _ in 0..END_CORRECTION_ITERATIONS {
+        let nose_t = sil.nose_t + nose_offset_m * sin_a * px_per_m;
+        let tail_t = sil.tail_t + DISC_HALF_WIDTH_REACH * model.radius_m() * cos_a * px_per_m;
+        let (nose, tail) = ends(sil, origin, nose_t, tail_t);
+        let mid = camera.normalize(0.5 * (nose.x + tail.x), 0.5 * (nose.y + tail.y));
+        frame = line_of_sight_frame(mid);
+        let angle = |p: Vector2<f32>| {
+            let n = camera.normalize(p.x, p.y);
+            let r = frame * Vector3::new(n.x, n.y, 1.0);
+            Vector2::new(r.x / r.z, r.y / r.z)
+        };
+        delta = (angle(nose) - angle(tail)) * range_m;
+        sin_a = (delta.norm() / length).min(1.0);
+        cos_a = libm::sqrtf((1.0 - sin_a * sin_a).max(0.0));
+    }
+    let transverse = delta / (length.max(delta.norm()));
+    let candidate = |sign: f32| {
+        let n_los = Vector3::new(transverse.x, transverse.y, sign * cos_a);
+        let n = frame.transpose() * n_los;
+        let (pitch_deg, yaw_deg) = attitude_of(&n);
+        Attitude { pitch_deg, yaw_deg }
+    };
+    let los = frame.row(2).transpose();
+    let t = los * range_m;
+    ClosedForm {
+        translation: [t.x, t.y, t.z],
+        candidates: [candidate(1.0), candidate(-1.0)],
+        aspect_deg: libm::asinf(sin_a) * DEG,
+    }
+}

@@ -1,0 +1,75 @@
+//! Every tunable of the pipeline, with its documented default.
+
+/// Which contrast polarity the projectile's body has against the sky.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum BodyPolarity {
+    /// Darker than the sky (a body against a bright sky; the source paper's case).
+    Dark,
+    /// Brighter than the sky (a sunlit body against a dark sky).
+    Bright,
+    /// Either: the more elongated candidate wins; later frames keep the polarity first chosen.
+    Auto,
+}
+
+/// How a range measurement is used.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RangeUse {
+    /// Fix the distance from the range where a frame has one, else measure it from the image.
+    Auto,
+    /// Always measure the distance from the image.
+    Ignore,
+}
+
+/// Pipeline configuration. [`Config::DEFAULT`] holds the defaults.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Config {
+    /// Detection threshold on the background-subtracted chip, in noise standard deviations.
+    pub detect_sigma: f32,
+    /// Smallest component kept for target selection, px.
+    pub min_area_px: u32,
+    /// The body's contrast polarity.
+    pub polarity: BodyPolarity,
+    /// Fraction of the body's full contrast at which the final mask is cut: 0.5 keeps pixels at
+    /// least half covered, as the ground-truth masks of ../shared/spec/projectile.md.
+    pub mask_level: f32,
+    /// Lowest mask cut, in noise standard deviations (guards low-contrast targets against noise).
+    pub mask_min_sigma: f32,
+    /// Weight `r` of the source paper's Eq. 5 Tz smoothing, in (0, 1]; 1 disables smoothing.
+    pub tz_smoothing_r: f32,
+    /// Frames in the temporal window for the Tz trend (at most [`crate::capacity::MAX_WINDOW`]).
+    pub window_frames: usize,
+    /// Fewest frames in the window before the yaw choice can be resolved.
+    pub min_trend_frames: usize,
+    /// Significance of the Tz trend, in standard errors, needed to resolve the yaw choice.
+    pub trend_sigma: f32,
+    /// A gap between frames longer than this, s, resets the temporal state.
+    pub max_gap_s: f32,
+    /// How a range measurement is used.
+    pub range_use: RangeUse,
+}
+
+impl Config {
+    /// The defaults.
+    pub const DEFAULT: Config = Config {
+        detect_sigma: 4.5,
+        min_area_px: 6,
+        polarity: BodyPolarity::Dark,
+        mask_level: 0.5,
+        mask_min_sigma: 2.0,
+        tz_smoothing_r: 0.1,
+        window_frames: 15,
+        min_trend_frames: 5,
+        trend_sigma: 3.0,
+        max_gap_s: 1.0,
+        range_use: RangeUse::Auto,
+    };
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}

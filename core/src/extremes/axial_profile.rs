@@ -1,0 +1,201 @@
+//! The body's width profile along its axis, and the ends read from it.
+//!
+//! Every pixel in a band around the axis adds its contrast (of the body's polarity) to 1-px bins
+//! along the axis, split linearly between the two nearest bins. Divided by the body contrast, a
+//! bin holds the silhouette's width there in px; blur moves no contrast across the axis, so the
+//! profile is the true width profile blurred only along the axis.
+
+use super::Axis;
+use crate::capacity::PROFILE_BINS;
+use crate::chip::ChipView;
+use crate::segment::background::Background;
+
+/// The width profile: `width[i]` at `t = start + (i + 0.5) * bin` px along the axis.
+pub struct WidthProfile {
+    width: [f32; PROFILE_BINS],
+    bins: usize,
+    start: f32,
+    bin: f32,
+}
+
+/// Pixels whose contrast is this many noise deviations of the wrong polarity are left out of
+/// the profile (an exhaust plume of opposite polarity over the tail).
+const OPPOSITE_CUTOFF_SIGMA: f32 = 4.0;
+
+impl WidthProfile {
+    /// Builds the profile over `-reach..reach` px along `axis`, from pixels within `band` px of
+    /// it, for a body of contrast `contrast` and sign `class`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn build(
+        chip: &ChipView,
+        background: &Background,
+        axis: &Axis,
+        class: i8,
+        contrast: f32,
+        reach: f32,
+        band: f32,
+    ) -> WidthProfile {
+        let bin = (2.0 * reach / PROFILE_BINS as f32).max(1.0);
+        let bins = ((2.0 * reach / bin) as usize).clamp(1, PROFILE_BINS);
+        let start = -0.5 * bins as f32 * bin;
+        let mut width = [0.0f32; PROFILE_BINS];
+        let sign = f32::from(class);
+        let cutoff = -OPPOSITE_CUTOFF_SIGMA * background.sigma();
+        let extent = reach + band + 1.0;
+        let (cx, cy) = axis.centre;
+        let x_lo = (cx - extent).max(0.0) as usize;
+        let x_hi = ((cx + extent).max(0.0) as usize + 1).min(chip.width());
+        let y_lo = (cy - extent).max(0.0) as usize;
+        let y_hi = ((cy + extent).max(0.0) as usize + 1).min(chip.height());
+        let scale = 1.0 / (contrast.max(1e-6) * bin);
+        for y in y_lo..y_hi {
+            chip.for_each_in_span(y, x_lo, x_hi, |x, v| {
+                let (along, across) = axis.local(x as f32, y as f32);
+                if libm::fabsf(across) > band {
+                    return;
+                }
+                let value = sign * (f32::from(v) - background.at(x as f32, y as f32));
+                if value < cutoff {
+                    return;
+                }
+                let position = (along - start) / bin - 0.5;
+                if position < -1.0 || position >= bins as f32 {
+                    return;
+                }
+                let lower = libm::floorf(position);
+                let frac = position - lower;
+                let i = lower as isize;
+                for (index, weight) in [(i, 1.0 - frac), (i + 1, frac)] {
+                    if index >= 0
+                        && (index as usize) < bins
+                        && let Some(slot) = width.get_mut(index as usize)
+                    {
+                        *slot += value * weight * scale;
+                    }
+                }
+            });
+        }
+        WidthProfile {
+            width,
+            bins,
+            start,
+            bin,
+        }
+    }
+
+    /// Width at bin `i`, px (0 outside).
+    pub fn at(&self, i: usize) -> f32 {
+        if i < self.bins {
+            self.width.get(i).copied().unwrap_or(0.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// Position of bin `i`'s centre along the axis, px.
+    pub fn t_of(&self, i: usize) -> f32 {
+        self.start + (i as f32 + 0.5) * self.bin
+    }
+
+    /// The bin containing position `t`, clamped to the profile.
+    pub fn bin_of(&self, t: f32) -> usize {
+        (((t - self.start) / self.bin).max(0.0) as usize).min(self.bins.saturating_sub(1))
+    }
+
+    /// Number of bins.
+    pub fn len(&self) -> usize {
+        self.bins
+    }
+
+    /// True when the profile has no bins.
+    pub fn is_empty(&self) -> bool {
+        self.bins == 0
+    }
+
+    /// Walks from bin `from` one bin at a time in direction `step` (+1 or -1) while the width
+    /// stays at or above `floor` (one narrower bin is tolerated as a gap), and returns the last
+    /// bin of the body.
+    pub fn body_end(&self, from: usize, step: isize, floor: f32) -> usize {
+        let mut last = from;
+        let mut i = from as isize;
+        loop {
+            let next = i + step;
+            let after = next + step;
+            if next < 0 || next as usize >= self.bins {
+                return last;
+            }
+            let w_next = self.at(next as usize);
+            let w_after = if after >= 0 {
+                self.at(after as usize)
+            } else {
+                0.0
+            };
+            if w_next >= floor {
+                last = next as usize;
+            } else if w_after < floor {
+                return last;
+            }
+            i = next;
+        }
+    }
+
+    /// Where, walking outwards from bin `inner` in direction `step`, the width first falls
+    /// below `level`: a position along the axis, px, linearly interpolated between bins.
+    pub fn crossing(&self, inner: usize, step: isize, level: f32) -> Option<f32> {
+        let mut i = inner as isize;
+        loop {
+            let next = i + step;
+            if next < 0 || next as usize >= self.bins {
+                return None;
+            }
+            let (a, b) = (self.at(i as usize), self.at(next as usize));
+            if a >= level && b < level {
+                let frac = (a - level) / (a - b).max(1e-9);
+                let (ta, tb) = (self.t_of(i as usize), self.t_of(next as usize));
+                return Some(ta + (tb - ta) * frac);
+            }
+            i = next;
+        }
+    }
+
+    /// Mean width over positions between `t0` and `t1` (either order), px.
+    pub fn mean_between(&self, t0: f32, t1: f32) -> f32 {
+        let (a, b) = (self.bin_of(t0.min(t1)), self.bin_of(t0.max(t1)));
+        let n = (b - a + 1) as f32;
+        (a..=b).map(|i| self.at(i)).sum::<f32>() / n
+    }
+
+    /// The zero of a least-squares line through the width where it lies between `lo` and `hi`,
+    /// taking the contiguous bins from the end `outer` inwards (direction `inward`): the
+    /// extrapolated tip of a tapering end, px along the axis.
+    pub fn ramp_zero(&self, outer: usize, inward: isize, lo: f32, hi: f32) -> Option<f32> {
+        let (mut n, mut st, mut sw, mut stt, mut stw) = (0.0f32, 0.0, 0.0, 0.0, 0.0);
+        let mut i = outer as isize;
+        let mut inside = false;
+        while i >= 0 && (i as usize) < self.bins {
+            let w = self.at(i as usize);
+            if w > hi {
+                break;
+            }
+            if w >= lo {
+                inside = true;
+                let t = self.t_of(i as usize);
+                n += 1.0;
+                st += t;
+                sw += w;
+                stt += t * t;
+                stw += t * w;
+            } else if inside {
+                break;
+            }
+            i += inward;
+        }
+        let det = n * stt - st * st;
+        if n < 2.0 || libm::fabsf(det) < 1e-9 {
+            return None;
+        }
+        let slope = (n * stw - st * sw) / det;
+        let intercept = (sw - slope * st) / n;
+        (libm::fabsf(slope) > 1e-6).then(|| -intercept / slope)
+    }
+}

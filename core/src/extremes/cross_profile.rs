@@ -1,0 +1,229 @@
+//! The body's cross-section profile: diameter, contrast and blur, measured subpixel.
+//!
+//! Pixels of a stretch of the cylindrical body are binned by their signed distance across the
+//! axis into a finely sampled 1D profile (many pixels at different subpixel offsets give a
+//! super-resolved edge). A blurred box with a linear shading term is fitted to it by
+//! Levenberg-Marquardt:
+//!
+//! `f(s) = b + (C0 + C1 (s - s0)) [Phi((s - s0 + d/2) / sigma) - Phi((s - s0 - d/2) / sigma)]`
+//!
+//! giving the diameter `d` in px (blur-free: the box edges sit where the blurred profile crosses
+//! half the contrast), the contrast `C0` at the axis, the blur `sigma` and the axis offset `s0`.
+
+use crate::chip::ChipView;
+use crate::segment::background::Background;
+use crate::segment::select::Shape;
+use nalgebra::{SMatrix, SVector};
+
+/// Bins of the cross-section profile.
+pub const CROSS_BINS: usize = 256;
+
+/// One stretch of the body along the axis, `t0..t1` px from the shape centre.
+#[derive(Debug, Clone, Copy)]
+pub struct Stretch {
+    /// Start along the axis, px.
+    pub t0: f32,
+    /// End along the axis, px.
+    pub t1: f32,
+}
+
+/// A fitted cross-section.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CrossSection {
+    /// Diameter across the axis, px.
+    pub diameter_px: f32,
+    /// Body contrast at the axis (sign-corrected: positive), grey levels.
+    pub contrast: f32,
+    /// Shading slope across the axis, grey levels per px.
+    pub shading: f32,
+    /// Gaussian blur standard deviation (PSF and pixel), px.
+    pub sigma_px: f32,
+    /// Offset of the body's axis from the shape's axis, px across.
+    pub offset_px: f32,
+    /// Pixels that went into the fit.
+    pub pixels: u32,
+}
+
+type Params = SVector<f32, 6>;
+
+/// Fits the cross-section of `stretch`, where the shape's axis is `shape` and the body's pixels
+/// have contrast sign `class`. `half_width` bounds the profile across the axis, px.
+pub fn fit(
+    chip: &ChipView,
+    background: &Background,
+    shape: &Shape,
+    class: i8,
+    stretch: Stretch,
+    half_width: f32,
+) -> Option<CrossSection> {
+    let half_width = half_width.max(3.0);
+    let bin_width = (2.0 * half_width / CROSS_BINS as f32).max(0.125);
+    let mut sum = [0.0f32; CROSS_BINS];
+    let mut count = [0u16; CROSS_BINS];
+    let sign = f32::from(class);
+    // The pixels around the stretch: its bounding box in chip coordinates.
+    let reach = libm::fabsf(stretch.t0).max(libm::fabsf(stretch.t1)) + half_width + 1.0;
+    let (cx, cy) = shape.centre;
+    let x_lo = (cx - reach).max(0.0) as usize;
+    let x_hi = ((cx + reach).max(0.0) as usize + 1).min(chip.width());
+    let y_lo = (cy - reach).max(0.0) as usize;
+    let y_hi = ((cy + reach).max(0.0) as usize + 1).min(chip.height());
+    let mut pixels = 0u32;
+    for y in y_lo..y_hi {
+        chip.for_each_in_span(y, x_lo, x_hi, |x, v| {
+            let (along, across) = shape.local(x as f32, y as f32);
+            if along < stretch.t0 || along >= stretch.t1 || libm::fabsf(across) >= half_width {
+                return;
+            }
+            let bin = ((across + half_width) / bin_width) as usize;
+            if let (Some(s), Some(c)) = (sum.get_mut(bin), count.get_mut(bin)) {
+                *s += sign * (f32::from(v) - background.at(x as f32, y as f32));
+                *c = c.saturating_add(1);
+                pixels += 1;
+            }
+        });
+    }
+    if pixels < 8 {
+        return None;
+    }
+    // The profile's points: bin centre, mean value, weight (pixel count).
+    let point = |i: usize| -> Option<(f32, f32, f32)> {
+        let c = *count.get(i)?;
+        if c == 0 {
+            return None;
+        }
+        let s = -half_width + (i as f32 + 0.5) * bin_width;
+        Some((s, *sum.get(i)? / f32::from(c), f32::from(c)))
+    };
+    let mut p = initial_guess(&point, half_width)?;
+    let mut lambda = 1e-2f32;
+    let mut cost = cost_of(&point, &p);
+    for _ in 0..30 {
+        let (jtj, jtr) = normal_equations(&point, &p);
+        let mut damped = jtj;
+        for k in 0..6 {
+            damped[(k, k)] += lambda * jtj[(k, k)].max(1e-9);
+        }
+        let Some(step) = damped.cholesky().map(|c| c.solve(&jtr)) else {
+            lambda *= 10.0;
+            continue;
+        };
+        let mut trial = p + step;
+        trial[4] = trial[4].max(0.2); // diameter
+        trial[5] = trial[5].clamp(0.2, half_width); // blur
+        let trial_cost = cost_of(&point, &trial);
+        if trial_cost.is_finite() && trial_cost <= cost {
+            let converged = (cost - trial_cost) <= 1e-7 * cost.max(1e-12);
+            p = trial;
+            cost = trial_cost;
+            lambda = (lambda * 0.3).max(1e-7);
+            if converged {
+                break;
+            }
+        } else {
+            lambda *= 10.0;
+            if lambda > 1e6 {
+                break;
+            }
+        }
+    }
+    let section = CrossSection {
+        diameter_px: p[4],
+        contrast: p[1],
+        shading: p[2],
+        sigma_px: p[5],
+        offset_px: p[3],
+        pixels,
+    };
+    (section.contrast > 0.0 && section.diameter_px.is_finite() && section.offset_px.is_finite())
+        .then_some(section)
+}
+
+/// Background offset, peak, zero slope, centroid, integral over peak, and a unit blur.
+fn initial_guess(
+    point: &impl Fn(usize) -> Option<(f32, f32, f32)>,
+    half_width: f32,
+) -> Option<Params> {
+    let (mut area, mut first, mut peak, mut edge_sum, mut edge_n) =
+        (0.0f32, 0.0f32, 0.0f32, 0.0f32, 0.0f32);
+    for i in 0..CROSS_BINS {
+        let Some((s, v, _)) = point(i) else { continue };
+        if libm::fabsf(s) > 0.75 * half_width {
+            edge_sum += v;
+            edge_n += 1.0;
+        }
+        peak = peak.max(v);
+    }
+    let b = if edge_n > 0.0 { edge_sum / edge_n } else { 0.0 };
+    let mut last_s: Option<f32> = None;
+    for i in 0..CROSS_BINS {
+        let Some((s, v, _)) = point(i) else { continue };
+        let ds = last_s.map_or(0.0, |l| s - l);
+        last_s = Some(s);
+        let v = (v - b).max(0.0);
+        area += v * ds;
+        first += v * s * ds;
+    }
+    let peak = peak - b;
+    if !(peak > 0.0 && area > 0.0) {
+        return None;
+    }
+    let centre = first / area;
+    let diameter = (area / peak).clamp(0.5, 2.0 * half_width);
+    Some(Params::from([b, peak, 0.0, centre, diameter, 0.8]))
+}
+
+/// Model value and its gradient with respect to the parameters at `s`.
+fn model(s: f32, p: &Params) -> (f32, Params) {
+    let (b, c0, c1, s0, d, sigma) = (p[0], p[1], p[2], p[3], p[4], p[5]);
+    let x = s - s0;
+    let u1 = (x + 0.5 * d) / sigma;
+    let u2 = (x - 0.5 * d) / sigma;
+    let box_ = normal_cdf(u1) - normal_cdf(u2);
+    let (g1, g2) = (normal_pdf(u1), normal_pdf(u2));
+    let amplitude = c0 + c1 * x;
+    let value = b + amplitude * box_;
+    let gradient = Params::from([
+        1.0,
+        box_,
+        x * box_,
+        -c1 * box_ + amplitude * (g2 - g1) / sigma,
+        amplitude * 0.5 * (g1 + g2) / sigma,
+        amplitude * (g2 * u2 - g1 * u1) / sigma,
+    ]);
+    (value, gradient)
+}
+
+fn cost_of(point: &impl Fn(usize) -> Option<(f32, f32, f32)>, p: &Params) -> f32 {
+    (0..CROSS_BINS)
+        .filter_map(point)
+        .map(|(s, v, w)| {
+            let r = v - model(s, p).0;
+            w * r * r
+        })
+        .sum()
+}
+
+fn normal_equations(
+    point: &impl Fn(usize) -> Option<(f32, f32, f32)>,
+    p: &Params,
+) -> (SMatrix<f32, 6, 6>, Params) {
+    let mut jtj = SMatrix::<f32, 6, 6>::zeros();
+    let mut jtr = Params::zeros();
+    for (s, v, w) in (0..CROSS_BINS).filter_map(point) {
+        let (value, g) = model(s, p);
+        jtj += g * g.transpose() * w;
+        jtr += g * (w * (v - value));
+    }
+    (jtj, jtr)
+}
+
+/// Standard normal cumulative distribution.
+pub fn normal_cdf(u: f32) -> f32 {
+    0.5 * (1.0 + libm::erff(u * core::f32::consts::FRAC_1_SQRT_2))
+}
+
+/// Standard normal density.
+pub fn normal_pdf(u: f32) -> f32 {
+    0.398_942_3 * libm::expf(-0.5 * u * u)
+}

@@ -1,0 +1,240 @@
+//! Extreme points and diameter: the body's axis, nose tip, tail edge and diameter, subpixel.
+//!
+//! 1. The cross-section of the cylindrical body is fitted on two stretches either side of the
+//!    centre ([`cross_profile`]): diameter, contrast and blur, and, from the two stretches'
+//!    offsets, the axis line corrected for the mask's moment errors.
+//! 2. The width profile along that axis ([`axial_profile`]) gives the ends: the nose is the end
+//!    that tapers (the ogive), the tail the end that stays full width (body and fins) to a sharp
+//!    drop. The nose tip is where a line fitted to the tapering width reaches zero; the tail edge
+//!    is where the width falls to half its plateau.
+
+pub mod axial_profile;
+pub mod cross_profile;
+
+use crate::chip::ChipView;
+use crate::model::ProjectileModel;
+use crate::segment::Target;
+use crate::segment::background::Background;
+use axial_profile::WidthProfile;
+use cross_profile::{CrossSection, Stretch};
+
+/// Width fractions of the body diameter between which the nose ramp is fitted.
+pub const NOSE_RAMP: (f32, f32) = (0.2, 0.65);
+
+/// A line in the chip: a point and a unit direction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Axis {
+    /// A point on the axis, chip px.
+    pub centre: (f32, f32),
+    /// Unit direction.
+    pub dir: (f32, f32),
+}
+
+impl Axis {
+    /// Signed distances of a chip point along and across the axis, px.
+    pub fn local(&self, x: f32, y: f32) -> (f32, f32) {
+        let (dx, dy) = (x - self.centre.0, y - self.centre.1);
+        (
+            dx * self.dir.0 + dy * self.dir.1,
+            -dx * self.dir.1 + dy * self.dir.0,
+        )
+    }
+
+    /// The chip point `t` px along the axis from its centre.
+    pub fn point(&self, t: f32) -> (f32, f32) {
+        (
+            self.centre.0 + t * self.dir.0,
+            self.centre.1 + t * self.dir.1,
+        )
+    }
+}
+
+/// Image measurements of the silhouette.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Silhouette {
+    /// The body axis, directed from the tail towards the nose.
+    pub axis: Axis,
+    /// Nose tip, extrapolated from the tapering width (not yet corrected for the ogive's
+    /// curvature: see [`ProjectileModel::nose_ramp_zero_offset_m`]), px along `axis`.
+    pub nose_t: f32,
+    /// Tail edge, where the width falls to half its plateau, px along `axis`.
+    pub tail_t: f32,
+    /// Body diameter across the axis, px.
+    pub diameter_px: f32,
+    /// Body contrast against the sky (positive), grey levels.
+    pub contrast: f32,
+    /// Blur standard deviation, px.
+    pub sigma_px: f32,
+    /// How clearly the nose end tapers and the tail end does not, in body diameters (0: no
+    /// evidence).
+    pub nose_evidence: f32,
+}
+
+/// Why the silhouette could not be measured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ExtremesError {
+    /// The cross-section fit found no body.
+    NoCrossSection,
+    /// The width profile has no recognisable ends.
+    NoEnds,
+}
+
+/// Measures the silhouette of `target`. `prior_dir` is the nose direction of recent frames, used
+/// only when the shape itself does not tell nose from tail.
+pub fn measure(
+    chip: &ChipView,
+    background: &Background,
+    target: &Target,
+    model: &ProjectileModel,
+    prior_dir: Option<(f32, f32)>,
+) -> Result<Silhouette, ExtremesError> {
+    let shape = &target.shape;
+    let half_length = 1.732 * shape.major_sd;
+    let half_width = 3.0 * shape.minor_sd + 3.0;
+    let fit = |t0: f32, t1: f32| {
+        cross_profile::fit(
+            chip,
+            background,
+            shape,
+            target.class,
+            Stretch { t0, t1 },
+            half_width,
+        )
+    };
+    let back = fit(-0.5 * half_length, 0.0);
+    let front = fit(0.0, 0.5 * half_length);
+    let axis0 = Axis {
+        centre: shape.centre,
+        dir: shape.axis,
+    };
+    let (axis, section) = match (back, front) {
+        (Some(b), Some(f)) => (
+            corrected_axis(&axis0, &b, &f, 0.5 * half_length),
+            average(&b, &f),
+        ),
+        (Some(s), None) | (None, Some(s)) => (shifted(&axis0, s.offset_px), s),
+        (None, None) => return Err(ExtremesError::NoCrossSection),
+    };
+    let d = section.diameter_px;
+    let band = 0.5 * d * model.fin_tip_radius_m / model.radius_m() + 2.0 * section.sigma_px + 1.0;
+    let reach = 1.3 * half_length + 4.0 * section.sigma_px + 8.0;
+    let profile = WidthProfile::build(
+        chip,
+        background,
+        &axis,
+        target.class,
+        section.contrast,
+        reach,
+        band,
+    );
+    let centre_bin = profile.bin_of(0.0);
+    let low = profile.body_end(centre_bin, -1, 0.15 * d);
+    let high = profile.body_end(centre_bin, 1, 0.15 * d);
+    let lo50 = profile
+        .crossing(centre_bin, -1, 0.5 * d)
+        .ok_or(ExtremesError::NoEnds)?;
+    let hi50 = profile
+        .crossing(centre_bin, 1, 0.5 * d)
+        .ok_or(ExtremesError::NoEnds)?;
+    let length = hi50 - lo50;
+    if !(length > 0.0) {
+        return Err(ExtremesError::NoEnds);
+    }
+    // Mean width 3-10 % of the length inside each end: the ogive is narrow there, the tail full.
+    let taper_low = profile.mean_between(lo50 + 0.03 * length, lo50 + 0.10 * length);
+    let taper_high = profile.mean_between(hi50 - 0.03 * length, hi50 - 0.10 * length);
+    let evidence = (taper_low - taper_high) / d; // > 0: the high end tapers (nose at +t)
+    let nose_high = if libm::fabsf(evidence) < 0.1
+        && let Some(prior) = prior_dir
+    {
+        axis.dir.0 * prior.0 + axis.dir.1 * prior.1 >= 0.0
+    } else {
+        evidence >= 0.0
+    };
+    let (nose_outer, nose_inward, nose50, tail_inward, tail50) = if nose_high {
+        (high, -1isize, hi50, 1isize, lo50)
+    } else {
+        (low, 1isize, lo50, -1isize, hi50)
+    };
+    let nose_t = profile
+        .ramp_zero(nose_outer, nose_inward, NOSE_RAMP.0 * d, NOSE_RAMP.1 * d)
+        .unwrap_or(nose50);
+    // Tail plateau 3-8 % of the length inside the tail edge, then its half-level crossing.
+    let inward = tail_inward as f32;
+    let plateau = profile.mean_between(
+        tail50 + inward * 0.03 * length,
+        tail50 + inward * 0.08 * length,
+    );
+    let tail_t = profile
+        .crossing(
+            profile.bin_of(tail50 + inward * 0.05 * length),
+            -tail_inward,
+            0.5 * plateau,
+        )
+        .unwrap_or(tail50);
+    // Express along an axis directed from the tail to the nose.
+    let (axis, nose_t, tail_t) = if nose_high {
+        (axis, nose_t, tail_t)
+    } else {
+        (
+            Axis {
+                centre: axis.centre,
+                dir: (-axis.dir.0, -axis.dir.1),
+            },
+            -nose_t,
+            -tail_t,
+        )
+    };
+    Ok(Silhouette {
+        axis,
+        nose_t,
+        tail_t,
+        diameter_px: d,
+        contrast: section.contrast,
+        sigma_px: section.sigma_px,
+        nose_evidence: libm::fabsf(evidence),
+    })
+}
+
+/// The axis through the two stretches' fitted centres (at -`lever`/2 and +`lever`/2 along it).
+fn corrected_axis(axis: &Axis, back: &CrossSection, front: &CrossSection, lever: f32) -> Axis {
+    let turn = libm::atanf((front.offset_px - back.offset_px) / lever.max(1.0));
+    let (s, c) = libm::sincosf(turn);
+    let dir = (
+        axis.dir.0 * c - axis.dir.1 * s,
+        axis.dir.0 * s + axis.dir.1 * c,
+    );
+    let shifted = shifted(axis, 0.5 * (back.offset_px + front.offset_px));
+    Axis {
+        centre: shifted.centre,
+        dir,
+    }
+}
+
+/// The axis moved `offset` px across itself.
+fn shifted(axis: &Axis, offset: f32) -> Axis {
+    Axis {
+        centre: (
+            axis.centre.0 - offset * axis.dir.1,
+            axis.centre.1 + offset * axis.dir.0,
+        ),
+        dir: axis.dir,
+    }
+}
+
+/// The pixel-weighted mean of two cross-sections.
+fn average(a: &CrossSection, b: &CrossSection) -> CrossSection {
+    let (wa, wb) = (a.pixels as f32, b.pixels as f32);
+    let mean = |x: f32, y: f32| (x * wa + y * wb) / (wa + wb).max(1.0);
+    CrossSection {
+        diameter_px: mean(a.diameter_px, b.diameter_px),
+        contrast: mean(a.contrast, b.contrast),
+        shading: mean(a.shading, b.shading),
+        sigma_px: mean(a.sigma_px, b.sigma_px),
+        offset_px: mean(a.offset_px, b.offset_px),
+        pixels: a.pixels + b.pixels,
+    }
+}

@@ -1,0 +1,257 @@
+//! The pipeline: one method from a chip to a [`FrameResult`], called alike by the host, the
+//! tests, the benchmarks, the fuzzers and the firmware. It owns every buffer and the temporal
+//! state; nothing is allocated per frame.
+
+use crate::camera::Camera;
+use crate::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS};
+use crate::chip::ChipView;
+use crate::closed_form::{self, ClosedForm};
+use crate::config::{Config, RangeUse};
+use crate::extremes::{self, Silhouette};
+use crate::mask::ChipMask;
+use crate::model::ProjectileModel;
+use crate::pose::Pose;
+use crate::segment::{CapacityKind, SegmentError, Segmenter};
+use crate::temporal::Temporal;
+
+/// One frame's input.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameInput<'a> {
+    /// The chip.
+    pub chip: ChipView<'a>,
+    /// Capture time, s (arbitrary origin; must increase from frame to frame).
+    pub time_s: f64,
+    /// Slant range to the body origin from a range sensor, m, where there is one.
+    pub range_m: Option<f32>,
+}
+
+/// What became of a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Status {
+    /// A pose was estimated.
+    Ok,
+    /// No target in the chip.
+    NoTarget,
+    /// A fixed capacity ran out (which one is in [`FrameResult::capacity`]).
+    Capacity,
+    /// The input is unusable (invalid camera, non-finite or non-positive range, ...).
+    BadInput,
+    /// A target was found but its silhouette could not be measured.
+    Unmeasurable,
+}
+
+impl Status {
+    /// The status as written in imade-results/1.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Status::Ok => "ok",
+            Status::NoTarget => "no_target",
+            Status::Capacity => "capacity",
+            Status::BadInput => "bad_input",
+            Status::Unmeasurable => "unmeasurable",
+        }
+    }
+}
+
+/// One frame's result.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FrameResult {
+    /// What became of the frame; the other fields are meaningful only when it is `Ok`.
+    pub status: Status,
+    /// Which capacity ran out, when the status is `Capacity`.
+    pub capacity: Option<CapacityKind>,
+    /// The pose with the chosen yaw candidate.
+    pub pose: Pose,
+    /// Pitch of the mirrored candidate, deg.
+    pub pitch_alt_deg: f32,
+    /// Yaw of the mirrored candidate, deg.
+    pub yaw_alt_deg: f32,
+    /// True when the choice between the candidates was resolved by the range trend.
+    pub yaw_resolved: bool,
+    /// True when a range measurement fixed the distance.
+    pub range_used: bool,
+    /// Roll modulo 90 deg, where estimated.
+    pub roll_deg: Option<f32>,
+    /// Slant range measured from the image (before smoothing), m; 0 where not measured.
+    pub image_range_m: f32,
+    /// The silhouette's measurements.
+    pub silhouette: Option<Silhouette>,
+}
+
+impl FrameResult {
+    /// A result with only a status.
+    pub const fn failed(status: Status) -> Self {
+        FrameResult {
+            status,
+            capacity: None,
+            pose: Pose {
+                tx_m: 0.0,
+                ty_m: 0.0,
+                tz_m: 0.0,
+                pitch_deg: 0.0,
+                yaw_deg: 0.0,
+            },
+            pitch_alt_deg: 0.0,
+            yaw_alt_deg: 0.0,
+            yaw_resolved: false,
+            range_used: false,
+            roll_deg: None,
+            image_range_m: 0.0,
+            silhouette: None,
+        }
+    }
+}
+
+/// The pipeline with its buffers: `MAX_RUNS` and `MAX_LABELS` size the labeler
+/// (see [`crate::capacity`]).
+pub struct Pipeline<
+    const MAX_RUNS: usize = DEFAULT_MAX_RUNS,
+    const MAX_LABELS: usize = DEFAULT_MAX_LABELS,
+> {
+    config: Config,
+    camera: Camera,
+    model: ProjectileModel,
+    segmenter: Segmenter<MAX_RUNS, MAX_LABELS>,
+    mask: ChipMask,
+    temporal: Temporal,
+}
+
+impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABELS> {
+    /// A pipeline for one camera and projectile.
+    pub const fn new(config: Config, camera: Camera, model: ProjectileModel) -> Self {
+        Pipeline {
+            config,
+            camera,
+            model,
+            segmenter: Segmenter::new(),
+            mask: ChipMask::new(),
+            temporal: Temporal::new(),
+        }
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+
+    /// The target mask of the last frame (chip-sized; empty when no target was found).
+    pub fn mask(&self) -> &ChipMask {
+        &self.mask
+    }
+
+    /// Forgets the temporal state (a new clip).
+    pub fn reset(&mut self) {
+        self.temporal.reset();
+        self.mask.clear();
+    }
+
+    /// Processes one frame.
+    pub fn process(&mut self, input: &FrameInput) -> FrameResult {
+        let range = match (input.range_m, self.config.range_use) {
+            (Some(r), RangeUse::Auto) => {
+                if !(r.is_finite() && r > 0.0) {
+                    return FrameResult::failed(Status::BadInput);
+                }
+                Some(r)
+            }
+            _ => None,
+        };
+        if !self.camera.is_valid() || !input.time_s.is_finite() {
+            return FrameResult::failed(Status::BadInput);
+        }
+        let chip = &input.chip;
+        let aim = (0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
+        let target = match self
+            .segmenter
+            .detect(chip, &self.config, aim, &mut self.mask)
+        {
+            Ok(t) => t,
+            Err(SegmentError::NoTarget) => return FrameResult::failed(Status::NoTarget),
+            Err(SegmentError::Capacity(kind)) => {
+                self.mask.clear();
+                return FrameResult {
+                    capacity: Some(kind),
+                    ..FrameResult::failed(Status::Capacity)
+                };
+            }
+        };
+        let background = self.segmenter.background();
+        let silhouette = match extremes::measure(
+            chip,
+            background,
+            &target,
+            &self.model,
+            self.temporal.nose_dir(),
+        ) {
+            Ok(s) => s,
+            Err(_) => return FrameResult::failed(Status::Unmeasurable),
+        };
+        let level = (self.config.mask_level * silhouette.contrast)
+            .max(self.config.mask_min_sigma * background.sigma());
+        let margin = (2.0 * silhouette.sigma_px + 3.0) as u16;
+        if let Err(SegmentError::Capacity(kind)) =
+            self.segmenter
+                .refine(chip, &target, level, margin, &mut self.mask)
+        {
+            return FrameResult {
+                capacity: Some(kind),
+                ..FrameResult::failed(Status::Capacity)
+            };
+        }
+        let image_range = closed_form::range_from_diameter(&silhouette, &self.camera, &self.model);
+        let t = self.temporal.frame_time(input.time_s, &self.config);
+        let (range_m, measured) = match (range, image_range) {
+            (Some(r), _) => (r, r),
+            (None, Some(r)) => (self.temporal.smooth_range(t, r, &self.config), r),
+            (None, None) => return FrameResult::failed(Status::Unmeasurable),
+        };
+        self.temporal.push_range(t, measured, &self.config);
+        self.temporal.set_nose_dir(silhouette.axis.dir);
+        let solution = closed_form::solve(
+            &silhouette,
+            (chip.x0(), chip.y0()),
+            &self.camera,
+            &self.model,
+            range_m,
+        );
+        let choice = self.temporal.choose_yaw(&self.config);
+        self.result(&solution, &silhouette, choice, range.is_some(), image_range)
+    }
+
+    fn result(
+        &self,
+        solution: &ClosedForm,
+        silhouette: &Silhouette,
+        choice: crate::temporal::YawChoice,
+        range_used: bool,
+        image_range: Option<f32>,
+    ) -> FrameResult {
+        let [away, towards] = solution.candidates;
+        let (chosen, alternative) = if choice.away {
+            (away, towards)
+        } else {
+            (towards, away)
+        };
+        let [tx_m, ty_m, tz_m] = solution.translation;
+        FrameResult {
+            status: Status::Ok,
+            capacity: None,
+            pose: Pose {
+                tx_m,
+                ty_m,
+                tz_m,
+                pitch_deg: chosen.pitch_deg,
+                yaw_deg: chosen.yaw_deg,
+            },
+            pitch_alt_deg: alternative.pitch_deg,
+            yaw_alt_deg: alternative.yaw_deg,
+            yaw_resolved: choice.resolved,
+            range_used,
+            roll_deg: None,
+            image_range_m: image_range.unwrap_or(0.0),
+            silhouette: Some(*silhouette),
+        }
+    }
+}

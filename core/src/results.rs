@@ -1,0 +1,41 @@
+//! The imade-results/1 row format (../shared/spec/clip-format.md), written through
+//! `core::fmt::Write` so that the host and the firmware produce the same bytes.
+
+use crate::pipeline::{FrameResult, Status};
+use core::fmt::{self, Write};
+
+/// The header line (without a line end). The spec's columns, then imade's own.
+pub const HEADER: &str = "frame,status,tx_m,ty_m,tz_m,pitch_deg,yaw_deg,yaw_alt_deg,yaw_resolved,range_used,roll_deg,pitch_alt_deg,image_range_m";
+
+/// Writes one row (without a line end) for `frame`.
+pub fn write_row(out: &mut impl Write, frame: u64, result: &FrameResult) -> fmt::Result {
+    if result.status != Status::Ok {
+        return write_status_row(out, frame, result.status.as_str());
+    }
+    let p = &result.pose;
+    write!(
+        out,
+        "{frame},ok,{:.4},{:.4},{:.3},{:.4},{:.4},{:.4},{},{},",
+        p.tx_m,
+        p.ty_m,
+        p.tz_m,
+        p.pitch_deg,
+        p.yaw_deg,
+        result.yaw_alt_deg,
+        result.yaw_resolved,
+        result.range_used
+    )?;
+    if let Some(roll) = result.roll_deg {
+        write!(out, "{roll:.3}")?;
+    }
+    write!(
+        out,
+        ",{:.4},{:.3}",
+        result.pitch_alt_deg, result.image_range_m
+    )
+}
+
+/// Writes the row of a frame that produced no pose, with `status` (lower case, no commas).
+pub fn write_status_row(out: &mut impl Write, frame: u64, status: &str) -> fmt::Result {
+    write!(out, "{frame},{status},,,,,,,false,false,,,")
+}

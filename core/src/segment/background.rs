@@ -1,0 +1,308 @@
+//! The sky background model and the noise estimate.
+//!
+//! The chip is cut into [`BACKGROUND_TILE`]-pixel tiles; each tile's median is its background
+//! level (robust to a target covering less than half of it), and the background at any pixel is
+//! the bilinear interpolation between tile centres, which follows sky gradients and clouds larger
+//! than a tile. The noise is the robust standard deviation of horizontal neighbour differences,
+//! which background gradients do not inflate.
+
+use crate::capacity::{BACKGROUND_TILE, MAX_TILES_PER_SIDE, NOISE_SAMPLES};
+use crate::chip::ChipView;
+
+/// Smallest noise standard deviation reported, grey levels (the quantization floor).
+const MIN_SIGMA: f32 = 0.3;
+
+/// Background levels per tile and the chip's noise level.
+#[derive(Clone)]
+pub struct Background {
+    width: usize,
+    height: usize,
+    tiles_x: usize,
+    tiles_y: usize,
+    levels: [f32; MAX_TILES_PER_SIDE * MAX_TILES_PER_SIDE],
+    sigma: f32,
+    samples: [f32; NOISE_SAMPLES],
+}
+
+impl Default for Background {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Background {
+    /// An empty model.
+    pub const fn new() -> Self {
+        Background {
+            width: 0,
+            height: 0,
+            tiles_x: 0,
+            tiles_y: 0,
+            levels: [0.0; MAX_TILES_PER_SIDE * MAX_TILES_PER_SIDE],
+            sigma: MIN_SIGMA,
+            samples: [0.0; NOISE_SAMPLES],
+        }
+    }
+
+    /// Estimates the background and noise of a chip.
+    pub fn estimate(&mut self, chip: &ChipView) {
+        self.width = chip.width();
+        self.height = chip.height();
+        self.tiles_x = self.width.div_ceil(BACKGROUND_TILE).min(MAX_TILES_PER_SIDE);
+        self.tiles_y = self
+            .height
+            .div_ceil(BACKGROUND_TILE)
+            .min(MAX_TILES_PER_SIDE);
+        for ty in 0..self.tiles_y {
+            for tx in 0..self.tiles_x {
+                let x0 = tx * BACKGROUND_TILE;
+                let y0 = ty * BACKGROUND_TILE;
+                let level = tile_median(
+                    chip,
+                    x0,
+                    y0,
+                    (x0 + BACKGROUND_TILE).min(self.width),
+                    (y0 + BACKGROUND_TILE).min(self.height),
+                );
+                if let Some(slot) = self.levels.get_mut(ty * self.tiles_x + tx) {
+                    *slot = level;
+                }
+            }
+        }
+        self.sigma = self.noise_sigma_of(chip);
+    }
+
+    /// Noise standard deviation, grey levels.
+    pub fn sigma(&self) -> f32 {
+        self.sigma
+    }
+
+    fn level(&self, tx: usize, ty: usize) -> f32 {
+        self.levels
+            .get(ty * self.tiles_x + tx)
+            .copied()
+            .unwrap_or(0.0)
+    }
+
+    /// Background at chip pixel (x, y), grey levels (bilinear between tile centres).
+    pub fn at(&self, x: f32, y: f32) -> f32 {
+        let (x0, x1, wx) = axis_weights(x, self.tiles_x, self.width);
+        let (y0, y1, wy) = axis_weights(y, self.tiles_y, self.height);
+        let top = self.level(x0, y0) * (1.0 - wx) + self.level(x1, y0) * wx;
+        let bottom = self.level(x0, y1) * (1.0 - wx) + self.level(x1, y1) * wx;
+        top * (1.0 - wy) + bottom * wy
+    }
+
+    /// Writes the background of row `y`, columns `x_start..x_start + out.len()`, into `out`.
+    pub fn fill_row(&self, y: usize, x_start: usize, out: &mut [f32]) {
+        let (y0, y1, wy) = axis_weights(y as f32, self.tiles_y, self.height);
+        let column = |tx: usize| self.level(tx, y0) * (1.0 - wy) + self.level(tx, y1) * wy;
+        // Walk the tile-centre segments left to right, interpolating incrementally.
+        let mut segment = usize::MAX;
+        let (mut left, mut right, mut c_left, mut span) = (0.0f32, 0.0f32, 0.0f32, 1.0f32);
+        for (i, slot) in out.iter_mut().enumerate() {
+            let x = (x_start + i) as f32;
+            let (t0, t1, _) = axis_weights(x, self.tiles_x, self.width);
+            if t0 != segment {
+                segment = t0;
+                left = column(t0);
+                right = column(t1);
+                c_left = tile_centre(t0, self.width);
+                span = (tile_centre(t1, self.width) - c_left).max(1.0);
+            }
+            let w = if t0 == t1 {
+                0.0
+            } else {
+                ((x - c_left) / span).clamp(0.0, 1.0)
+            };
+            *slot = left + (right - left) * w;
+        }
+    }
+
+    fn noise_sigma_of(&mut self, chip: &ChipView) -> f32 {
+        let (w, h) = (chip.width(), chip.height());
+        if w < 2 {
+            return MIN_SIGMA;
+        }
+        // A regular grid of about NOISE_SAMPLES horizontal neighbour differences.
+        let cells = ((w - 1) * h).max(1);
+        let step = libm::sqrtf((cells / NOISE_SAMPLES) as f32).max(1.0) as usize;
+        let mut n = 0usize;
+        'rows: for y in (0..h).step_by(step.max(1)) {
+            for x in (0..w - 1).step_by(step.max(1)) {
+                let Some(slot) = self.samples.get_mut(n) else {
+                    break 'rows;
+                };
+                *slot = (f32::from(chip.get(x + 1, y)) - f32::from(chip.get(x, y))).abs();
+                n += 1;
+            }
+        }
+        let Some(samples) = self.samples.get_mut(..n) else {
+            return MIN_SIGMA;
+        };
+        if samples.is_empty() {
+            return MIN_SIGMA;
+        }
+        let mid = samples.len() / 2;
+        let (_, median, _) = samples.select_nth_unstable_by(mid, f32::total_cmp);
+        // Median |N(0, s)| = 0.6745 s; the difference of two pixels has s = sqrt(2) sigma.
+        let rough = (*median / 0.6745).max(1.0);
+        // Refine with the RMS of the differences within 3.5 rough sigmas (less quantization bias
+        // than the median of integer data); 0.9955 is the variance kept by a 3.5-sigma cut.
+        let clip = 3.5 * rough;
+        let (sum, count) = samples
+            .iter()
+            .filter(|d| **d <= clip)
+            .fold((0.0f32, 0u32), |(s, c), d| (s + d * d, c + 1));
+        if count == 0 {
+            return MIN_SIGMA;
+        }
+        let diff_sigma = libm::sqrtf(sum / (count as f32 * 0.9955));
+        (diff_sigma / core::f32::consts::SQRT_2).max(MIN_SIGMA)
+    }
+}
+
+/// Centre of tile `t` along an axis of `size` pixels, px.
+fn tile_centre(t: usize, size: usize) -> f32 {
+    let start = t * BACKGROUND_TILE;
+    let len = BACKGROUND_TILE.min(size.saturating_sub(start)).max(1);
+    start as f32 + (len as f32 - 1.0) * 0.5
+}
+
+/// The two tiles whose centres bracket `p` along an axis of `tiles` tiles, and the weight of the
+/// second; clamped to the edge tiles outside the outermost centres.
+fn axis_weights(p: f32, tiles: usize, size: usize) -> (usize, usize, f32) {
+    if tiles <= 1 {
+        return (0, 0, 0.0);
+    }
+    let last = tiles - 1;
+    if p <= tile_centre(0, size) {
+        return (0, 0, 0.0);
+    }
+    if p >= tile_centre(last, size) {
+        return (last, last, 0.0);
+    }
+    let t0 = ((p / BACKGROUND_TILE as f32) as usize).min(last);
+    let t0 = if p < tile_centre(t0, size) {
+        t0.saturating_sub(1)
+    } else {
+        t0
+    };
+    let t1 = (t0 + 1).min(last);
+    let c0 = tile_centre(t0, size);
+    let c1 = tile_centre(t1, size);
+    let w = if c1 > c0 { (p - c0) / (c1 - c0) } else { 0.0 };
+    (t0, t1, w.clamp(0.0, 1.0))
+}
+
+/// Median of the tile `x0..x1` x `y0..y1`, interpolated within its histogram bin.
+fn tile_median(chip: &ChipView, x0: usize, y0: usize, x1: usize, y1: usize) -> f32 {
+    let shift = if chip.is_16bit() { 8 } else { 0 };
+    let mut coarse = [0u32; 256];
+    for y in y0..y1 {
+        chip.for_each_in_span(y, x0, x1, |_, v| {
+            coarse[usize::from((v >> shift) as u8)] += 1
+        });
+    }
+    let total: u32 = coarse.iter().sum();
+    if total == 0 {
+        return 0.0;
+    }
+    let half = total as f32 * 0.5;
+    let (bin, below) = median_bin(&coarse, half);
+    if shift == 0 {
+        return interpolated(bin, below, &coarse, half, 1.0);
+    }
+    // 16-bit: a second pass over the low byte of the values in the median's coarse bin.
+    let mut fine = [0u32; 256];
+    for y in y0..y1 {
+        chip.for_each_in_span(y, x0, x1, |_, v| {
+            if usize::from(v >> 8) == bin {
+                fine[usize::from(v as u8)] += 1;
+            }
+        });
+    }
+    let (fine_bin, fine_below) = median_bin(&fine, half - below as f32);
+    (bin as f32) * 256.0 + interpolated(fine_bin, fine_below, &fine, half - below as f32, 1.0)
+}
+
+/// The bin where the cumulative count reaches `half`, and the count below it.
+fn median_bin(hist: &[u32; 256], half: f32) -> (usize, u32) {
+    let mut below = 0u32;
+    for (i, &c) in hist.iter().enumerate() {
+        if (below + c) as f32 >= half {
+            return (i, below);
+        }
+        below += c;
+    }
+    (255, below)
+}
+
+/// The median inside bin `bin` of width `width`, assuming its values spread evenly.
+fn interpolated(bin: usize, below: u32, hist: &[u32; 256], half: f32, width: f32) -> f32 {
+    let count = hist.get(bin).copied().unwrap_or(0).max(1) as f32;
+    bin as f32 * width - 0.5 * width + width * ((half - below as f32) / count).clamp(0.0, 1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn follows_a_gradient_and_ignores_a_small_target() {
+        let (w, h) = (128usize, 96usize);
+        let mut data = [0u8; 128 * 96];
+        for y in 0..h {
+            for x in 0..w {
+                let sky = 100.0 + 0.5 * x as f32 + 0.25 * y as f32;
+                let dark = (60..70).contains(&x) && (40..44).contains(&y);
+                data[y * w + x] = if dark { 20 } else { sky as u8 };
+            }
+        }
+        let chip = ChipView::gray8(&data, w, h, w, 0, 0).unwrap();
+        let mut bg = Background::new();
+        bg.estimate(&chip);
+        for (x, y) in [(20.0, 20.0), (64.0, 42.0), (100.0, 70.0)] {
+            let truth = 100.0 + 0.5 * x + 0.25 * y;
+            assert!(
+                (bg.at(x, y) - truth).abs() < 1.5,
+                "at ({x},{y}): {}",
+                bg.at(x, y)
+            );
+        }
+        let mut row = [0.0f32; 128];
+        bg.fill_row(42, 0, &mut row);
+        for x in [0usize, 17, 64, 127] {
+            assert!(
+                (row[x] - bg.at(x as f32, 42.0)).abs() < 1e-3,
+                "row and point agree at {x}"
+            );
+        }
+        assert!(
+            bg.sigma() < 1.0,
+            "a noiseless gradient has little noise: {}",
+            bg.sigma()
+        );
+    }
+
+    #[test]
+    fn estimates_gaussian_noise() {
+        // A deterministic pseudo-random Gaussian field (sum of 12 uniforms) with sigma 4.
+        let (w, h) = (256usize, 256usize);
+        let mut data = [0u16; 256 * 256];
+        let mut state = 12345u32;
+        for v in data.iter_mut() {
+            let mut acc = 0.0f32;
+            for _ in 0..12 {
+                state = state.wrapping_mul(1664525).wrapping_add(1013904223);
+                acc += (state >> 8) as f32 / (1u32 << 24) as f32;
+            }
+            *v = (1000.0 + 4.0 * (acc - 6.0)).round() as u16;
+        }
+        let chip = ChipView::gray16(&data, w, h, w, 0, 0).unwrap();
+        let mut bg = Background::new();
+        bg.estimate(&chip);
+        assert!((bg.sigma() - 4.0).abs() < 0.3, "sigma {}", bg.sigma());
+        assert!((bg.at(128.0, 128.0) - 1000.0).abs() < 0.5);
+    }
+}

@@ -1,0 +1,471 @@
+//! 8-connected component labeling of a classified chip region, run by run, in fixed memory.
+//!
+//! Each row of the region is cut into runs of equal nonzero class (the class is the contrast
+//! polarity: +1 brighter, -1 darker than the background). A run joins the label of every run of
+//! the same class in the row above that touches it (8-connectivity), merging labels through a
+//! union-find table; statistics accumulate per provisional label and fold into the roots at the
+//! end. Capacities are const generics; running out is an error, never a truncation.
+
+use super::background::Background;
+use crate::capacity::MAX_CHIP_SIDE;
+use crate::chip::ChipView;
+
+/// A horizontal run of pixels of one class.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Run {
+    /// Row, px.
+    pub y: u16,
+    /// First column, px.
+    pub x0: u16,
+    /// Last column (inclusive), px.
+    pub x1: u16,
+    /// Provisional label (resolve with [`Labeler::root`]).
+    pub label: u16,
+}
+
+/// A rectangle of chip pixels, `x0..x1` x `y0..y1`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Rect {
+    /// First column, px.
+    pub x0: u16,
+    /// First row, px.
+    pub y0: u16,
+    /// One past the last column, px.
+    pub x1: u16,
+    /// One past the last row, px.
+    pub y1: u16,
+}
+
+impl Rect {
+    /// This rectangle grown by `margin` px on every side and clipped to a `width` x `height` chip.
+    pub fn grown(&self, margin: u16, width: usize, height: usize) -> Rect {
+        Rect {
+            x0: self.x0.saturating_sub(margin),
+            y0: self.y0.saturating_sub(margin),
+            x1: self.x1.saturating_add(margin).min(width as u16),
+            y1: self.y1.saturating_add(margin).min(height as u16),
+        }
+    }
+}
+
+/// Pixel statistics of a label.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Moments {
+    /// Pixel count.
+    pub n: u32,
+    sx: u64,
+    sy: u64,
+    sxx: u64,
+    syy: u64,
+    sxy: u64,
+    /// Sum of background-subtracted values, grey levels.
+    pub sum_residual: f32,
+    /// Sum of raw values, grey levels.
+    pub sum_value: u64,
+    /// Bounding box.
+    pub bbox: Rect,
+    /// Class of the pixels (+1 brighter, -1 darker than the background).
+    pub class: i8,
+}
+
+impl Moments {
+    fn empty(class: i8) -> Self {
+        Moments {
+            n: 0,
+            sx: 0,
+            sy: 0,
+            sxx: 0,
+            syy: 0,
+            sxy: 0,
+            sum_residual: 0.0,
+            sum_value: 0,
+            bbox: Rect {
+                x0: u16::MAX,
+                y0: u16::MAX,
+                x1: 0,
+                y1: 0,
+            },
+            class,
+        }
+    }
+
+    /// Adds the run `x0..=x1` of row `y` (exact integer sums).
+    fn add_run(&mut self, y: u16, x0: u16, x1: u16, sum_residual: f32, sum_value: u64) {
+        let n = u64::from(x1 - x0) + 1;
+        let (a, b, yy) = (u64::from(x0), u64::from(x1), u64::from(y));
+        let sum_x = (a + b) * n / 2;
+        // Sum of x^2 for x in a..=b = S(b) - S(a - 1), S(k) = k (k + 1) (2k + 1) / 6.
+        let s = |k: u64| k * (k + 1) * (2 * k + 1) / 6;
+        let sum_xx = s(b) - if a == 0 { 0 } else { s(a - 1) };
+        self.n += n as u32;
+        self.sx += sum_x;
+        self.sy += yy * n;
+        self.sxx += sum_xx;
+        self.syy += yy * yy * n;
+        self.sxy += yy * sum_x;
+        self.sum_residual += sum_residual;
+        self.sum_value += sum_value;
+        self.bbox.x0 = self.bbox.x0.min(x0);
+        self.bbox.x1 = self.bbox.x1.max(x1 + 1);
+        self.bbox.y0 = self.bbox.y0.min(y);
+        self.bbox.y1 = self.bbox.y1.max(y + 1);
+    }
+
+    /// Adds another label's statistics.
+    pub fn merge(&mut self, other: &Moments) {
+        self.n += other.n;
+        self.sx += other.sx;
+        self.sy += other.sy;
+        self.sxx += other.sxx;
+        self.syy += other.syy;
+        self.sxy += other.sxy;
+        self.sum_residual += other.sum_residual;
+        self.sum_value += other.sum_value;
+        self.bbox.x0 = self.bbox.x0.min(other.bbox.x0);
+        self.bbox.y0 = self.bbox.y0.min(other.bbox.y0);
+        self.bbox.x1 = self.bbox.x1.max(other.bbox.x1);
+        self.bbox.y1 = self.bbox.y1.max(other.bbox.y1);
+    }
+
+    /// Centroid (x, y), px.
+    pub fn centroid(&self) -> (f32, f32) {
+        let n = self.n.max(1) as f32;
+        (self.sx as f32 / n, self.sy as f32 / n)
+    }
+
+    /// Central second moments (xx, yy, xy), px^2, each pixel a unit square (variance 1/12 added).
+    pub fn covariance(&self) -> (f32, f32, f32) {
+        let n = self.n.max(1) as f32;
+        let (cx, cy) = self.centroid();
+        let xx = self.sxx as f32 / n - cx * cx + 1.0 / 12.0;
+        let yy = self.syy as f32 / n - cy * cy + 1.0 / 12.0;
+        let xy = self.sxy as f32 / n - cx * cy;
+        (xx.max(1.0 / 12.0), yy.max(1.0 / 12.0), xy)
+    }
+
+    /// Mean background-subtracted value, grey levels.
+    pub fn mean_residual(&self) -> f32 {
+        self.sum_residual / self.n.max(1) as f32
+    }
+
+    /// Mean raw value, grey levels.
+    pub fn mean_value(&self) -> f32 {
+        self.sum_value as f32 / self.n.max(1) as f32
+    }
+}
+
+/// A capacity of the labeler ran out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LabelError {
+    /// More runs than the run table holds.
+    Runs,
+    /// More provisional labels than the label table holds.
+    Labels,
+}
+
+/// The labeler and its tables: `MAX_RUNS` runs and `MAX_LABELS` provisional labels.
+pub struct Labeler<const MAX_RUNS: usize, const MAX_LABELS: usize> {
+    runs: heapless::Vec<Run, MAX_RUNS>,
+    parent: heapless::Vec<u16, MAX_LABELS>,
+    moments: heapless::Vec<Moments, MAX_LABELS>,
+}
+
+impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Default for Labeler<MAX_RUNS, MAX_LABELS> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABELS> {
+    /// An empty labeler.
+    pub const fn new() -> Self {
+        Labeler {
+            runs: heapless::Vec::new(),
+            parent: heapless::Vec::new(),
+            moments: heapless::Vec::new(),
+        }
+    }
+
+    /// Labels `region` of the chip. Each pixel's background-subtracted value goes through
+    /// `classify`, which returns its class (0 for background). On success every label is resolved
+    /// and its statistics folded into its root.
+    pub fn label(
+        &mut self,
+        chip: &ChipView,
+        background: &Background,
+        region: Rect,
+        classify: impl Fn(f32) -> i8,
+    ) -> Result<(), LabelError> {
+        self.runs.clear();
+        self.parent.clear();
+        self.moments.clear();
+        let x_start = usize::from(region.x0);
+        let x_end = usize::from(region.x1).min(chip.width());
+        let mut bg_row = [0.0f32; MAX_CHIP_SIDE];
+        let Some(bg) = bg_row.get_mut(..x_end.saturating_sub(x_start)) else {
+            return Ok(());
+        };
+        let mut prev = 0..0;
+        for y in usize::from(region.y0)..usize::from(region.y1).min(chip.height()) {
+            background.fill_row(y, x_start, bg);
+            let row_start = self.runs.len();
+            let mut open: Option<(u16, i8, f32, u64)> = None; // (x0, class, sum r, sum v)
+            let mut failure = None;
+            let mut close = |labeler: &mut Self, x0: u16, x1: u16, class: i8, r: f32, v: u64| {
+                if failure.is_none()
+                    && let Err(e) = labeler.push_run(y as u16, x0, x1, class, r, v, prev.clone())
+                {
+                    failure = Some(e);
+                }
+            };
+            chip.for_each_in_span(y, x_start, x_end, |x, value| {
+                let v = f32::from(value);
+                let r = v - bg.get(x - x_start).copied().unwrap_or(v);
+                let class = classify(r);
+                match open {
+                    Some((x0, c, sr, sv)) if c == class => {
+                        open = Some((x0, c, sr + r, sv + u64::from(value)));
+                    }
+                    _ => {
+                        if let Some((x0, c, sr, sv)) = open.take() {
+                            close(self, x0, x as u16 - 1, c, sr, sv);
+                        }
+                        if class != 0 {
+                            open = Some((x as u16, class, r, u64::from(value)));
+                        }
+                    }
+                }
+            });
+            if let Some((x0, c, sr, sv)) = open {
+                close(self, x0, x_end as u16 - 1, c, sr, sv);
+            }
+            if let Some(e) = failure {
+                return Err(e);
+            }
+            prev = row_start..self.runs.len();
+        }
+        self.resolve();
+        Ok(())
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn push_run(
+        &mut self,
+        y: u16,
+        x0: u16,
+        x1: u16,
+        class: i8,
+        sum_r: f32,
+        sum_v: u64,
+        prev: core::ops::Range<usize>,
+    ) -> Result<(), LabelError> {
+        let mut label: Option<u16> = None;
+        for i in prev {
+            let Some(&above) = self.runs.get(i) else {
+                break;
+            };
+            if above.x0 > x1.saturating_add(1) {
+                break;
+            }
+            if above.x1.saturating_add(1) < x0 || self.class_of(above.label) != class {
+                continue;
+            }
+            let root = self.find(above.label);
+            label = Some(match label {
+                None => root,
+                Some(l) => self.union(l, root),
+            });
+        }
+        let label = match label {
+            Some(l) => l,
+            None => {
+                let l = self.parent.len() as u16;
+                self.parent.push(l).map_err(|_| LabelError::Labels)?;
+                self.moments
+                    .push(Moments::empty(class))
+                    .map_err(|_| LabelError::Labels)?;
+                l
+            }
+        };
+        if let Some(m) = self.moments.get_mut(usize::from(label)) {
+            m.add_run(y, x0, x1, sum_r, sum_v);
+        }
+        self.runs
+            .push(Run { y, x0, x1, label })
+            .map_err(|_| LabelError::Runs)
+    }
+
+    fn class_of(&self, label: u16) -> i8 {
+        self.moments.get(usize::from(label)).map_or(0, |m| m.class)
+    }
+
+    /// The root of a label.
+    pub fn root(&self, label: u16) -> u16 {
+        let mut l = label;
+        while let Some(&p) = self.parent.get(usize::from(l)) {
+            if p == l {
+                break;
+            }
+            l = p;
+        }
+        l
+    }
+
+    fn find(&mut self, label: u16) -> u16 {
+        let root = self.root(label);
+        // Path compression.
+        let mut l = label;
+        while l != root {
+            let Some(p) = self.parent.get_mut(usize::from(l)) else {
+                break;
+            };
+            let next = *p;
+            *p = root;
+            l = next;
+        }
+        root
+    }
+
+    /// Joins two roots; the smaller label becomes the root.
+    fn union(&mut self, a: u16, b: u16) -> u16 {
+        let (keep, drop) = if a <= b { (a, b) } else { (b, a) };
+        if let Some(p) = self.parent.get_mut(usize::from(drop)) {
+            *p = keep;
+        }
+        keep
+    }
+
+    /// Points every label at its root and folds statistics into roots (roots are always smaller
+    /// than the labels joined to them, so one pass in order suffices).
+    fn resolve(&mut self) {
+        for l in 0..self.parent.len() {
+            let root = self.find(l as u16);
+            if usize::from(root) == l {
+                continue;
+            }
+            let Some(&m) = self.moments.get(l) else {
+                continue;
+            };
+            if let Some(r) = self.moments.get_mut(usize::from(root)) {
+                r.merge(&m);
+            }
+        }
+    }
+
+    /// Root labels and their statistics, in label order.
+    pub fn components(&self) -> impl Iterator<Item = (u16, &Moments)> {
+        self.moments
+            .iter()
+            .enumerate()
+            .filter(|(l, _)| self.parent.get(*l).is_some_and(|p| usize::from(*p) == *l))
+            .map(|(l, m)| (l as u16, m))
+    }
+
+    /// Every run, with its provisional label.
+    pub fn runs(&self) -> &[Run] {
+        &self.runs
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    type Small = Labeler<64, 16>;
+
+    fn label_u8<const R: usize, const L: usize>(
+        labeler: &mut Labeler<R, L>,
+        data: &[u8],
+        w: usize,
+        h: usize,
+    ) -> Result<(), LabelError> {
+        let chip = ChipView::gray8(data, w, h, w, 0, 0).unwrap();
+        let bg = Background::new(); // all-zero background: the residual is the value
+        let region = Rect {
+            x0: 0,
+            y0: 0,
+            x1: w as u16,
+            y1: h as u16,
+        };
+        labeler.label(&chip, &bg, region, |r| if r > 100.0 { 1 } else { 0 })
+    }
+
+    #[test]
+    fn eight_connectivity_joins_diagonals_and_u_shapes() {
+        #[rustfmt::skip]
+        let img: [u8; 6 * 5] = [
+            255, 0, 0, 0, 0, 255,
+            0, 255, 0, 0, 255, 0,
+            0, 0, 255, 255, 0, 0,
+            0, 0, 0, 0, 0, 0,
+            255, 255, 0, 0, 0, 255,
+        ];
+        let mut l = Small::new();
+        label_u8(&mut l, &img, 6, 5).unwrap();
+        let comps: heapless::Vec<_, 8> = l.components().map(|(_, m)| m.n).collect();
+        assert_eq!(
+            comps.as_slice(),
+            &[6, 2, 1],
+            "V shape joined diagonally; two separate blobs"
+        );
+    }
+
+    #[test]
+    fn moments_match_a_hand_computed_rectangle() {
+        let mut img = [0u8; 10 * 8];
+        for y in 2..5 {
+            for x in 3..8 {
+                img[y * 10 + x] = 200;
+            }
+        }
+        let mut l = Small::new();
+        label_u8(&mut l, &img, 10, 8).unwrap();
+        let (_, m) = l.components().next().unwrap();
+        assert_eq!(m.n, 15);
+        assert_eq!(
+            m.bbox,
+            Rect {
+                x0: 3,
+                y0: 2,
+                x1: 8,
+                y1: 5
+            }
+        );
+        let (cx, cy) = m.centroid();
+        assert!((cx - 5.0).abs() < 1e-6 && (cy - 3.0).abs() < 1e-6);
+        let (xx, yy, xy) = m.covariance();
+        // Continuous 5 x 3 box: width^2 / 12.
+        assert!(
+            (xx - 25.0 / 12.0).abs() < 1e-4 && (yy - 9.0 / 12.0).abs() < 1e-4 && xy.abs() < 1e-5
+        );
+        assert!((m.mean_residual() - 200.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn capacities_are_exact_limits_and_errors() {
+        // One run per row in 16 rows of isolated single pixels on alternate columns:
+        // a chip with exactly N isolated pixels needs N runs and N labels.
+        let make = |n: usize| {
+            let mut img = [0u8; 32 * 32];
+            for i in 0..n {
+                img[(2 * (i / 16)) * 32 + 2 * (i % 16)] = 255;
+            }
+            img
+        };
+        let mut at_limit = Labeler::<16, 16>::new();
+        assert_eq!(label_u8(&mut at_limit, &make(16), 32, 32), Ok(()));
+        assert_eq!(at_limit.components().count(), 16);
+        let mut over_labels = Labeler::<64, 16>::new();
+        assert_eq!(
+            label_u8(&mut over_labels, &make(17), 32, 32),
+            Err(LabelError::Labels)
+        );
+        let mut over_runs = Labeler::<16, 64>::new();
+        assert_eq!(
+            label_u8(&mut over_runs, &make(17), 32, 32),
+            Err(LabelError::Runs)
+        );
+    }
+}

@@ -1,0 +1,224 @@
+//! Segmentation: background model, threshold, connected components, target selection, and the
+//! target's mask.
+//!
+//! Detection thresholds the background-subtracted chip at `detect_sigma` noise deviations on both
+//! sides (targets darker or brighter than the sky), labels 8-connected components, and selects
+//! the projectile ([`select`]). Once the body's full contrast is measured, [`Segmenter::refine`]
+//! recuts the mask at a fraction of it (half, by default: the pixels at least half covered).
+
+pub mod background;
+pub mod label;
+pub mod select;
+
+use crate::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS, MAX_COMPONENTS};
+use crate::chip::ChipView;
+use crate::config::Config;
+use crate::mask::ChipMask;
+use background::Background;
+use label::{LabelError, Labeler, Moments, Rect};
+use select::{Candidate, Selection, Shape};
+
+/// Why no target came out of segmentation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SegmentError {
+    /// No component of at least the minimum area.
+    NoTarget,
+    /// A capacity ran out.
+    Capacity(CapacityKind),
+}
+
+/// Which capacity ran out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CapacityKind {
+    /// The labeler's run table.
+    Runs,
+    /// The labeler's label table.
+    Labels,
+    /// More than [`MAX_COMPONENTS`] components of the minimum area.
+    Components,
+    /// The chip is larger than the mask.
+    Mask,
+}
+
+impl From<LabelError> for SegmentError {
+    fn from(e: LabelError) -> Self {
+        SegmentError::Capacity(match e {
+            LabelError::Runs => CapacityKind::Runs,
+            LabelError::Labels => CapacityKind::Labels,
+        })
+    }
+}
+
+/// The segmented target.
+#[derive(Debug, Clone, Copy)]
+pub struct Target {
+    /// Contrast class: +1 brighter, -1 darker than the sky.
+    pub class: i8,
+    /// Combined statistics of its parts.
+    pub moments: Moments,
+    /// Shape from the moments.
+    pub shape: Shape,
+    /// Number of components it was merged from.
+    pub parts: u8,
+    /// Components of at least the minimum area in the chip.
+    pub components: u16,
+}
+
+/// The segmentation stage and its fixed buffers.
+pub struct Segmenter<
+    const MAX_RUNS: usize = DEFAULT_MAX_RUNS,
+    const MAX_LABELS: usize = DEFAULT_MAX_LABELS,
+> {
+    background: Background,
+    labeler: Labeler<MAX_RUNS, MAX_LABELS>,
+}
+
+impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Default for Segmenter<MAX_RUNS, MAX_LABELS> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Segmenter<MAX_RUNS, MAX_LABELS> {
+    /// An empty segmenter.
+    pub const fn new() -> Self {
+        Segmenter {
+            background: Background::new(),
+            labeler: Labeler::new(),
+        }
+    }
+
+    /// The background model of the last chip.
+    pub fn background(&self) -> &Background {
+        &self.background
+    }
+
+    /// Detects the target in `chip`, aiming near `aim` (chip px), and paints its mask.
+    pub fn detect(
+        &mut self,
+        chip: &ChipView,
+        config: &Config,
+        aim: (f32, f32),
+        mask: &mut ChipMask,
+    ) -> Result<Target, SegmentError> {
+        mask.reset(chip.width(), chip.height())
+            .map_err(|_| SegmentError::Capacity(CapacityKind::Mask))?;
+        self.background.estimate(chip);
+        let threshold = config.detect_sigma * self.background.sigma();
+        let whole = Rect {
+            x0: 0,
+            y0: 0,
+            x1: chip.width() as u16,
+            y1: chip.height() as u16,
+        };
+        self.labeler.label(chip, &self.background, whole, |r| {
+            if r > threshold {
+                1
+            } else if r < -threshold {
+                -1
+            } else {
+                0
+            }
+        })?;
+        let mut candidates: heapless::Vec<Candidate, MAX_COMPONENTS> = heapless::Vec::new();
+        for (label, moments) in self.labeler.components() {
+            if moments.n >= config.min_area_px {
+                candidates
+                    .push(Candidate {
+                        label,
+                        moments: *moments,
+                    })
+                    .map_err(|_| SegmentError::Capacity(CapacityKind::Components))?;
+            }
+        }
+        let diag = libm::hypotf(chip.width() as f32, chip.height() as f32);
+        let selection = select::select(
+            &candidates,
+            self.background.sigma(),
+            aim,
+            diag,
+            config.polarity,
+        )
+        .ok_or(SegmentError::NoTarget)?;
+        self.paint(&selection.parts, mask);
+        Ok(target_of(&selection, candidates.len()))
+    }
+
+    /// Recuts the target's mask where its contrast (of the target's polarity) reaches `level`
+    /// grey levels, keeping the components that overlap the current mask, and repaints the mask.
+    pub fn refine(
+        &mut self,
+        chip: &ChipView,
+        target: &Target,
+        level: f32,
+        margin: u16,
+        mask: &mut ChipMask,
+    ) -> Result<Target, SegmentError> {
+        let region = target
+            .moments
+            .bbox
+            .grown(margin, chip.width(), chip.height());
+        let class = target.class;
+        self.labeler.label(chip, &self.background, region, |r| {
+            if r * f32::from(class) >= level { 1 } else { 0 }
+        })?;
+        let mut keep: heapless::Vec<u16, MAX_COMPONENTS> = heapless::Vec::new();
+        for run in self.labeler.runs() {
+            let root = self.labeler.root(run.label);
+            let overlaps =
+                mask.any_in_run(usize::from(run.y), usize::from(run.x0), usize::from(run.x1));
+            if overlaps && !keep.contains(&root) {
+                keep.push(root)
+                    .map_err(|_| SegmentError::Capacity(CapacityKind::Components))?;
+            }
+        }
+        let mut parts = keep.iter();
+        let Some(first) = parts.next() else {
+            // Nothing reaches the level (very low contrast): keep the detection as it is.
+            return Ok(*target);
+        };
+        let moments_of = |l: &u16| {
+            self.labeler
+                .components()
+                .find(|(label, _)| label == l)
+                .map(|(_, m)| *m)
+        };
+        let Some(mut moments) = moments_of(first) else {
+            return Ok(*target);
+        };
+        for l in parts {
+            if let Some(m) = moments_of(l) {
+                moments.merge(&m);
+            }
+        }
+        mask.clear();
+        self.paint(&keep, mask);
+        Ok(Target {
+            class,
+            moments,
+            shape: Shape::of(&moments),
+            parts: keep.len() as u8,
+            components: target.components,
+        })
+    }
+
+    fn paint(&self, roots: &[u16], mask: &mut ChipMask) {
+        for run in self.labeler.runs() {
+            if roots.contains(&self.labeler.root(run.label)) {
+                mask.set_run(usize::from(run.y), usize::from(run.x0), usize::from(run.x1));
+            }
+        }
+    }
+}
+
+fn target_of(selection: &Selection, components: usize) -> Target {
+    Target {
+        class: selection.moments.class,
+        moments: selection.moments,
+        shape: Shape::of(&selection.moments),
+        parts: selection.parts.len() as u8,
+        components: components as u16,
+    }
+}

@@ -1,0 +1,161 @@
+//! Target selection: which component is the projectile, not the exhaust plume or clutter, and
+//! which other components are fragments of its broken silhouette.
+
+use super::label::Moments;
+use crate::capacity::{MAX_COMPONENTS, MAX_TARGET_PARTS};
+use crate::config::BodyPolarity;
+
+/// A candidate component: its root label and statistics.
+#[derive(Debug, Clone, Copy)]
+pub struct Candidate {
+    /// Root label in the labeler.
+    pub label: u16,
+    /// Statistics.
+    pub moments: Moments,
+}
+
+/// Shape figures of a component derived from its second moments.
+#[derive(Debug, Clone, Copy)]
+pub struct Shape {
+    /// Centroid, chip px.
+    pub centre: (f32, f32),
+    /// Unit vector of the major axis.
+    pub axis: (f32, f32),
+    /// Standard deviation along the major axis, px.
+    pub major_sd: f32,
+    /// Standard deviation across it, px.
+    pub minor_sd: f32,
+}
+
+impl Shape {
+    /// The shape of a set of moments.
+    pub fn of(m: &Moments) -> Shape {
+        let (xx, yy, xy) = m.covariance();
+        let half_diff = 0.5 * (xx - yy);
+        let root = libm::sqrtf(half_diff * half_diff + xy * xy);
+        let mean = 0.5 * (xx + yy);
+        let angle = 0.5 * libm::atan2f(2.0 * xy, xx - yy);
+        Shape {
+            centre: m.centroid(),
+            axis: (libm::cosf(angle), libm::sinf(angle)),
+            major_sd: libm::sqrtf((mean + root).max(0.0)),
+            minor_sd: libm::sqrtf((mean - root).max(1.0 / 12.0)),
+        }
+    }
+
+    /// Major over minor standard deviation (1 for a disc).
+    pub fn elongation(&self) -> f32 {
+        self.major_sd / self.minor_sd.max(1e-3)
+    }
+
+    /// Signed distance of a point along the axis and across it from the centre, px.
+    pub fn local(&self, x: f32, y: f32) -> (f32, f32) {
+        let (dx, dy) = (x - self.centre.0, y - self.centre.1);
+        (
+            dx * self.axis.0 + dy * self.axis.1,
+            -dx * self.axis.1 + dy * self.axis.0,
+        )
+    }
+}
+
+/// The selected target: its parts and their combined statistics.
+#[derive(Debug, Clone)]
+pub struct Selection {
+    /// Root labels of the parts (the main component first).
+    pub parts: heapless::Vec<u16, MAX_TARGET_PARTS>,
+    /// Combined statistics.
+    pub moments: Moments,
+}
+
+/// Score of a candidate: significance (|sum of residuals| over noise), elongation, and nearness
+/// to the aim point. Larger is better.
+fn score(c: &Candidate, sigma: f32, aim: (f32, f32), chip_diag: f32) -> f32 {
+    let m = &c.moments;
+    let significance = m.sum_residual.abs() / (sigma.max(1e-3) * libm::sqrtf(m.n as f32));
+    let shape = Shape::of(m);
+    let (dx, dy) = (shape.centre.0 - aim.0, shape.centre.1 - aim.1);
+    let distance = libm::sqrtf(dx * dx + dy * dy) / chip_diag.max(1.0);
+    libm::logf(1.0 + significance) + 0.5 * libm::logf(shape.elongation())
+        - 4.0 * distance * distance
+}
+
+/// Whether candidate `c` should be preferred over `other` as the body, by polarity.
+fn more_body_like(c: &Candidate, other: &Candidate, polarity: BodyPolarity) -> bool {
+    match polarity {
+        BodyPolarity::Dark => c.moments.mean_value() < other.moments.mean_value(),
+        BodyPolarity::Bright => c.moments.mean_value() > other.moments.mean_value(),
+        BodyPolarity::Auto => {
+            Shape::of(&c.moments).elongation() > Shape::of(&other.moments).elongation()
+        }
+    }
+}
+
+/// True when two components lie close together: the gap between their boxes is within
+/// `gap` px.
+fn adjacent(a: &Moments, b: &Moments, gap: f32) -> bool {
+    let dx = (f32::from(a.bbox.x0) - f32::from(b.bbox.x1))
+        .max(f32::from(b.bbox.x0) - f32::from(a.bbox.x1))
+        .max(0.0);
+    let dy = (f32::from(a.bbox.y0) - f32::from(b.bbox.y1))
+        .max(f32::from(b.bbox.y0) - f32::from(a.bbox.y1))
+        .max(0.0);
+    dx * dx + dy * dy <= gap * gap
+}
+
+/// Selects the projectile among `candidates` (at most [`MAX_COMPONENTS`]).
+///
+/// The two best-scoring candidates are compared as in the source paper (Section 5.2.2): when they
+/// lie close together (the plume trails the tail), the one whose mean intensity fits the body's
+/// polarity wins (the darker one for a dark body). Components of the winner's polarity lying
+/// along its axis, within half its length of its ends, are merged as fragments.
+pub fn select(
+    candidates: &heapless::Vec<Candidate, MAX_COMPONENTS>,
+    sigma: f32,
+    aim: (f32, f32),
+    chip_diag: f32,
+    polarity: BodyPolarity,
+) -> Option<Selection> {
+    let mut best: Option<(f32, &Candidate)> = None;
+    let mut second: Option<(f32, &Candidate)> = None;
+    for c in candidates.iter() {
+        let s = score(c, sigma, aim, chip_diag);
+        if best.is_none_or(|(b, _)| s > b) {
+            second = best;
+            best = Some((s, c));
+        } else if second.is_none_or(|(b, _)| s > b) {
+            second = Some((s, c));
+        }
+    }
+    let (_, mut main) = best?;
+    if let Some((_, other)) = second {
+        let reach = 2.0
+            * Shape::of(&main.moments)
+                .major_sd
+                .max(Shape::of(&other.moments).major_sd);
+        if adjacent(&main.moments, &other.moments, reach) && more_body_like(other, main, polarity) {
+            main = other;
+        }
+    }
+    let mut selection = Selection {
+        parts: heapless::Vec::new(),
+        moments: main.moments,
+    };
+    // `parts` has room for MAX_TARGET_PARTS >= 1 labels.
+    let _ = selection.parts.push(main.label);
+    let shape = Shape::of(&main.moments);
+    // Half-length of a uniform bar with this standard deviation is sqrt(3) sd.
+    let half_length = 1.732 * shape.major_sd;
+    for c in candidates.iter() {
+        if c.label == main.label || c.moments.class != main.moments.class {
+            continue;
+        }
+        let (cx, cy) = c.moments.centroid();
+        let (along, across) = shape.local(cx, cy);
+        let lateral_limit = (3.0 * shape.minor_sd).max(2.0);
+        let on_axis = across.abs() <= lateral_limit && along.abs() <= 1.5 * half_length + 2.0;
+        if on_axis && selection.parts.push(c.label).is_ok() {
+            selection.moments.merge(&c.moments);
+        }
+    }
+    Some(selection)
+}

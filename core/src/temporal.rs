@@ -1,0 +1,281 @@
+//! Temporal state in fixed memory: range smoothing (the source paper's Eq. 5), the range trend
+//! over a window, and the yaw choice it resolves.
+//!
+//! Eq. 5 blends the current estimate with the previous one: `Tz(t) = r Tz_meas + (1 - r) Tz(t-1)`.
+//! A projectile's range changes by metres per frame, so blending with the previous value as it
+//! was would lag the truth by `(1 - r) / r` frames of motion; here the previous smoothed value is
+//! first carried to the current time along the window's robust trend. The trend is the
+//! Theil-Sen slope of the measured slant range against time; it resolves the yaw choice when it
+//! differs from zero by `trend_sigma` standard errors: a growing range means the nose points away
+//! (nose-first flight), a shrinking one that it points towards the camera.
+
+use crate::capacity::MAX_WINDOW;
+use crate::config::Config;
+
+/// Pairs of a full window, for the Theil-Sen slope.
+const MAX_PAIRS: usize = MAX_WINDOW * (MAX_WINDOW - 1) / 2;
+
+#[derive(Debug, Clone, Copy)]
+struct Sample {
+    t: f32,
+    range: f32,
+}
+
+/// The range trend over the window.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Trend {
+    /// Slope of the slant range, m/s.
+    pub slope: f32,
+    /// Its standard error, m/s.
+    pub stderr: f32,
+    /// Samples in the window.
+    pub frames: u8,
+}
+
+/// The yaw choice between the two mirror candidates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct YawChoice {
+    /// True: the nose points away from the camera (candidate 0); false: towards it.
+    pub away: bool,
+    /// True when the current trend decided it.
+    pub resolved: bool,
+}
+
+/// The temporal state.
+#[derive(Debug, Clone)]
+pub struct Temporal {
+    window: heapless::Deque<Sample, MAX_WINDOW>,
+    origin_s: Option<f64>,
+    last_t: f32,
+    smoothed: Option<Sample>,
+    last_away: Option<bool>,
+    nose_dir: Option<(f32, f32)>,
+}
+
+impl Default for Temporal {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Temporal {
+    /// An empty state.
+    pub const fn new() -> Self {
+        Temporal {
+            window: heapless::Deque::new(),
+            origin_s: None,
+            last_t: 0.0,
+            smoothed: None,
+            last_away: None,
+            nose_dir: None,
+        }
+    }
+
+    /// Forgets everything.
+    pub fn reset(&mut self) {
+        *self = Self::new();
+    }
+
+    /// Time of a frame relative to the first frame kept, s. A frame not after the last one, or
+    /// after a gap longer than `config.max_gap_s`, resets the state first.
+    pub fn frame_time(&mut self, time_s: f64, config: &Config) -> f32 {
+        if let Some(origin) = self.origin_s {
+            let t = (time_s - origin) as f32;
+            let gap = t - self.last_t;
+            if t.is_finite() && gap > 0.0 && gap <= config.max_gap_s {
+                self.last_t = t;
+                return t;
+            }
+            self.reset();
+        }
+        self.origin_s = Some(time_s);
+        self.last_t = 0.0;
+        0.0
+    }
+
+    /// Smooths a slant range measured from the image at time `t` (Eq. 5 with trend), m.
+    pub fn smooth_range(&mut self, t: f32, measured: f32, config: &Config) -> f32 {
+        let r = config.tz_smoothing_r.clamp(0.0, 1.0);
+        let value = match self.smoothed {
+            Some(prev) => {
+                let slope = self.trend().map_or(0.0, |tr| tr.slope);
+                let predicted = prev.range + slope * (t - prev.t);
+                r * measured + (1.0 - r) * predicted
+            }
+            None => measured,
+        };
+        self.smoothed = Some(Sample { t, range: value });
+        value
+    }
+
+    /// Adds a measured slant range at time `t` to the window.
+    pub fn push_range(&mut self, t: f32, range: f32, config: &Config) {
+        let capacity = config.window_frames.clamp(2, MAX_WINDOW);
+        while self.window.len() >= capacity {
+            self.window.pop_front();
+        }
+        // Room is guaranteed by the loop above.
+        let _ = self.window.push_back(Sample { t, range });
+    }
+
+    /// The Theil-Sen trend of the window, with a robust standard error; none with fewer than 3
+    /// samples.
+    pub fn trend(&self) -> Option<Trend> {
+        let n = self.window.len();
+        if n < 3 {
+            return None;
+        }
+        let mut slopes = [0.0f32; MAX_PAIRS];
+        let mut count = 0usize;
+        for (i, a) in self.window.iter().enumerate() {
+            for b in self.window.iter().skip(i + 1) {
+                let dt = b.t - a.t;
+                if dt > 0.0
+                    && let Some(slot) = slopes.get_mut(count)
+                {
+                    *slot = (b.range - a.range) / dt;
+                    count += 1;
+                }
+            }
+        }
+        let slope = median(slopes.get_mut(..count)?)?;
+        let mut residuals = [0.0f32; MAX_WINDOW];
+        let mut intercepts = [0.0f32; MAX_WINDOW];
+        for ((s, r), i) in self
+            .window
+            .iter()
+            .zip(residuals.iter_mut())
+            .zip(intercepts.iter_mut())
+        {
+            *i = s.range - slope * s.t;
+            *r = *i;
+        }
+        let intercept = median(intercepts.get_mut(..n)?)?;
+        for r in residuals.iter_mut().take(n) {
+            *r = libm::fabsf(*r - intercept);
+        }
+        let spread = 1.4826 * median(residuals.get_mut(..n)?)?;
+        let mean_t = self.window.iter().map(|s| s.t).sum::<f32>() / n as f32;
+        let sxx: f32 = self
+            .window
+            .iter()
+            .map(|s| (s.t - mean_t) * (s.t - mean_t))
+            .sum();
+        Some(Trend {
+            slope,
+            stderr: spread / libm::sqrtf(sxx.max(1e-12)),
+            frames: n as u8,
+        })
+    }
+
+    /// Chooses between the mirror candidates from the trend; keeps the last resolved choice (or
+    /// "away", for a projectile flying off from the launcher) while the trend is not significant.
+    pub fn choose_yaw(&mut self, config: &Config) -> YawChoice {
+        let decided = self.trend().filter(|tr| {
+            usize::from(tr.frames) >= config.min_trend_frames
+                && libm::fabsf(tr.slope) > config.trend_sigma * tr.stderr
+        });
+        match decided {
+            Some(tr) => {
+                let away = tr.slope > 0.0;
+                self.last_away = Some(away);
+                YawChoice {
+                    away,
+                    resolved: true,
+                }
+            }
+            None => YawChoice {
+                away: self.last_away.unwrap_or(true),
+                resolved: false,
+            },
+        }
+    }
+
+    /// The nose's image direction of the last frame, if any.
+    pub fn nose_dir(&self) -> Option<(f32, f32)> {
+        self.nose_dir
+    }
+
+    /// Remembers the nose's image direction.
+    pub fn set_nose_dir(&mut self, dir: (f32, f32)) {
+        self.nose_dir = Some(dir);
+    }
+}
+
+/// Median of a slice (reordered in place); none when empty.
+fn median(values: &mut [f32]) -> Option<f32> {
+    if values.is_empty() {
+        return None;
+    }
+    let mid = values.len() / 2;
+    let (_, m, _) = values.select_nth_unstable_by(mid, f32::total_cmp);
+    Some(*m)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn resolves_a_growing_range_as_away_and_a_shrinking_one_as_towards() {
+        let config = Config::DEFAULT;
+        for (rate, away) in [(90.0f32, true), (-90.0, false)] {
+            let mut state = Temporal::new();
+            let mut choice = state.choose_yaw(&config);
+            assert!(!choice.resolved);
+            for k in 0..12 {
+                let t = state.frame_time(100.0 + k as f64 / 30.0, &config);
+                // +-2 m of alternating noise on a linear trend.
+                let noise = if k % 2 == 0 { 2.0 } else { -2.0 };
+                state.push_range(t, 1500.0 + rate * t + noise, &config);
+                choice = state.choose_yaw(&config);
+            }
+            assert!(choice.resolved, "rate {rate}");
+            assert_eq!(choice.away, away);
+            let trend = state.trend().unwrap();
+            assert!((trend.slope - rate).abs() < 15.0, "slope {}", trend.slope);
+        }
+    }
+
+    #[test]
+    fn a_flat_noisy_range_stays_unresolved() {
+        let config = Config::DEFAULT;
+        let mut state = Temporal::new();
+        for k in 0..15 {
+            let t = state.frame_time(k as f64 / 30.0, &config);
+            let noise = [3.0, -1.0, 4.0, -4.0, 0.5][k % 5];
+            state.push_range(t, 1500.0 + noise, &config);
+        }
+        assert!(!state.choose_yaw(&config).resolved);
+    }
+
+    #[test]
+    fn smoothing_follows_a_trend_without_lag() {
+        let config = Config::DEFAULT;
+        let mut state = Temporal::new();
+        let mut last = 0.0;
+        for k in 0..40 {
+            let t = state.frame_time(k as f64 / 30.0, &config);
+            let truth = 1200.0 + 120.0 * t;
+            state.push_range(t, truth, &config);
+            last = state.smooth_range(t, truth, &config) - truth;
+        }
+        assert!(last.abs() < 0.5, "lag {last} m");
+    }
+
+    #[test]
+    fn a_time_gap_or_reversal_resets() {
+        let config = Config::DEFAULT;
+        let mut state = Temporal::new();
+        assert_eq!(state.frame_time(10.0, &config), 0.0);
+        assert!((state.frame_time(10.1, &config) - 0.1).abs() < 1e-6);
+        assert_eq!(state.frame_time(10.05, &config), 0.0, "time went back");
+        assert_eq!(
+            state.frame_time(20.0, &config),
+            0.0,
+            "gap longer than max_gap_s"
+        );
+    }
+}
