@@ -10,7 +10,7 @@ pub const HEADER: &str = "frame,status,tx_m,ty_m,tz_m,pitch_deg,yaw_deg,yaw_alt_
 /// Writes one row (without a line end) for `frame`.
 pub fn write_row(out: &mut impl Write, frame: u64, result: &FrameResult) -> fmt::Result {
     if result.status != Status::Ok {
-        return write_status_row(out, frame, result.status.as_str());
+        return write_status_row(out, Some(frame), result.status.as_str());
     }
     let p = &result.pose;
     write!(
@@ -35,7 +35,11 @@ pub fn write_row(out: &mut impl Write, frame: u64, result: &FrameResult) -> fmt:
     )
 }
 
-/// Writes the row of a frame that produced no pose, with `status` (lower case, no commas).
-pub fn write_status_row(out: &mut impl Write, frame: u64, status: &str) -> fmt::Result {
-    write!(out, "{frame},{status},,,,,,,false,false,,,")
+/// Writes the row of a frame that produced no pose, with `status` (lower case, no commas); the
+/// frame column is left empty where the frame number itself could not be read.
+pub fn write_status_row(out: &mut impl Write, frame: Option<u64>, status: &str) -> fmt::Result {
+    if let Some(frame) = frame {
+        write!(out, "{frame}")?;
+    }
+    write!(out, ",{status},,,,,,,false,false,,,")
 }

@@ -98,13 +98,13 @@ impl Background {
         let (y0, y1, wy) = axis_weights(y as f32, self.tiles_y, self.height);
         let column = |tx: usize| self.level(tx, y0) * (1.0 - wy) + self.level(tx, y1) * wy;
         // Walk the tile-centre segments left to right, interpolating incrementally.
-        let mut segment = usize::MAX;
+        let mut segment = (usize::MAX, usize::MAX);
         let (mut left, mut right, mut c_left, mut span) = (0.0f32, 0.0f32, 0.0f32, 1.0f32);
         for (i, slot) in out.iter_mut().enumerate() {
             let x = (x_start + i) as f32;
             let (t0, t1, _) = axis_weights(x, self.tiles_x, self.width);
-            if t0 != segment {
-                segment = t0;
+            if (t0, t1) != segment {
+                segment = (t0, t1);
                 left = column(t0);
                 right = column(t1);
                 c_left = tile_centre(t0, self.width);

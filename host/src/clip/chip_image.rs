@@ -26,7 +26,11 @@ pub struct ChipImage {
 
 impl ChipImage {
     /// Borrows the chip as a core view with the chip's full-frame origin.
-    pub fn view(&self, x0: i32, y0: i32) -> Result<imade_core::ChipView<'_>, imade_core::ChipError> {
+    pub fn view(
+        &self,
+        x0: i32,
+        y0: i32,
+    ) -> Result<imade_core::ChipView<'_>, imade_core::ChipError> {
         let (w, h) = (self.width as usize, self.height as usize);
         match &self.pixels {
             ChipPixels::U8(p) => imade_core::ChipView::gray8(p, w, h, w, x0, y0),
@@ -79,5 +83,9 @@ pub fn load_mask(path: &Path) -> anyhow::Result<(u32, u32, Vec<bool>)> {
     let image = image::open(path).with_context(|| format!("decoding {}", path.display()))?;
     let gray = image.to_luma8();
     let (w, h) = gray.dimensions();
-    Ok((w, h, gray.into_raw().into_iter().map(|v| v >= 128).collect()))
+    Ok((
+        w,
+        h,
+        gray.into_raw().into_iter().map(|v| v >= 128).collect(),
+    ))
 }

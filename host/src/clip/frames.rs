@@ -110,18 +110,22 @@ pub fn read_frames(path: &Path) -> anyhow::Result<Vec<Result<FrameRow, FrameRowE
                 message: e.to_string(),
             })
             .and_then(|r| {
-                r.deserialize::<RawRow>(Some(&headers)).map_err(|e| FrameRowError {
-                    line,
-                    frame: None,
-                    message: e.to_string(),
-                })
+                r.deserialize::<RawRow>(Some(&headers))
+                    .map_err(|e| FrameRowError {
+                        line,
+                        frame: None,
+                        message: e.to_string(),
+                    })
             })
             .and_then(|raw| parse_row(line, raw));
         let checked = parsed.and_then(|row| match last_frame {
             Some(prev) if row.frame <= prev => Err(FrameRowError {
                 line,
                 frame: Some(row.frame),
-                message: format!("frame number {} does not increase (previous {prev})", row.frame),
+                message: format!(
+                    "frame number {} does not increase (previous {prev})",
+                    row.frame
+                ),
             }),
             _ => Ok(row),
         });
@@ -164,16 +168,21 @@ fn parse_row(line: u64, raw: RawRow) -> Result<FrameRow, FrameRowError> {
     ]
     .map(|v| optional_f64("gt_", v));
     let truth = match gt {
-        [Ok(Some(tx_m)), Ok(Some(ty_m)), Ok(Some(tz_m)), Ok(Some(pitch_deg)), Ok(Some(yaw_deg)), Ok(Some(roll_deg))] => {
-            Some(GroundTruth {
-                tx_m,
-                ty_m,
-                tz_m,
-                pitch_deg,
-                yaw_deg,
-                roll_deg,
-            })
-        }
+        [
+            Ok(Some(tx_m)),
+            Ok(Some(ty_m)),
+            Ok(Some(tz_m)),
+            Ok(Some(pitch_deg)),
+            Ok(Some(yaw_deg)),
+            Ok(Some(roll_deg)),
+        ] => Some(GroundTruth {
+            tx_m,
+            ty_m,
+            tz_m,
+            pitch_deg,
+            yaw_deg,
+            roll_deg,
+        }),
         _ => None,
     };
     Ok(FrameRow {

@@ -50,7 +50,8 @@ pub struct ClipMeta {
 
 /// Reads and validates `clip.json`.
 pub fn read_meta(path: &Path) -> anyhow::Result<ClipMeta> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     let meta: ClipMeta =
         serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
     if meta.format != FORMAT_ID {
@@ -64,7 +65,10 @@ pub fn read_meta(path: &Path) -> anyhow::Result<ClipMeta> {
     let c = &meta.camera;
     let finite_positive = |v: f64| v.is_finite() && v > 0.0;
     if !(finite_positive(c.fx) && finite_positive(c.fy) && c.cx.is_finite() && c.cy.is_finite()) {
-        bail!("{}: camera intrinsics must be finite with fx, fy > 0", path.display());
+        bail!(
+            "{}: camera intrinsics must be finite with fx, fy > 0",
+            path.display()
+        );
     }
     if meta.chip.width == 0 || meta.chip.height == 0 {
         bail!("{}: chip size must be positive", path.display());
