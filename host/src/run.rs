@@ -74,7 +74,10 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         }
     }
     if failed > 0 {
-        bail!("{failed} of {} clips could not be processed", args.clips.len());
+        bail!(
+            "{failed} of {} clips could not be processed",
+            args.clips.len()
+        );
     }
     Ok(())
 }
@@ -130,7 +133,8 @@ pub fn run_clip(dir: &Path, out: &Path, config: &Config) -> anyhow::Result<ClipS
         csv.push('\n');
     }
     if let Some(parent) = out.parent() {
-        std::fs::create_dir_all(parent).with_context(|| format!("creating {}", parent.display()))?;
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("creating {}", parent.display()))?;
     }
     write_atomically(out, csv.as_bytes())?;
     Ok(summary)

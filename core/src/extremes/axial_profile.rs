@@ -112,50 +112,51 @@ impl WidthProfile {
         self.bins == 0
     }
 
-    /// Walks from bin `from` one bin at a time in direction `step` (+1 or -1) while the width
-    /// stays at or above `floor` (one narrower bin is tolerated as a gap), and returns the last
-    /// bin of the body.
-    pub fn body_end(&self, from: usize, step: isize, floor: f32) -> usize {
+    /// Walks from bin `from` one bin at a time in direction `step` (+1 or -1) and returns the
+    /// last bin at or above `floor` before `max_gap` consecutive bins below it (a gap in a broken
+    /// silhouette is crossed; the sky beyond the end is not).
+    pub fn body_end(&self, from: usize, step: isize, floor: f32, max_gap: usize) -> usize {
         let mut last = from;
-        let mut i = from as isize;
-        loop {
-            let next = i + step;
-            let after = next + step;
-            if next < 0 || next as usize >= self.bins {
-                return last;
-            }
-            let w_next = self.at(next as usize);
-            let w_after = if after >= 0 {
-                self.at(after as usize)
+        let mut below = 0usize;
+        let mut i = from as isize + step;
+        while i >= 0 && (i as usize) < self.bins && below < max_gap.max(1) {
+            if self.at(i as usize) >= floor {
+                last = i as usize;
+                below = 0;
             } else {
-                0.0
-            };
-            if w_next >= floor {
-                last = next as usize;
-            } else if w_after < floor {
-                return last;
+                below += 1;
             }
-            i = next;
+            i += step;
         }
+        last
     }
 
-    /// Where, walking outwards from bin `inner` in direction `step`, the width first falls
-    /// below `level`: a position along the axis, px, linearly interpolated between bins.
-    pub fn crossing(&self, inner: usize, step: isize, level: f32) -> Option<f32> {
-        let mut i = inner as isize;
-        loop {
-            let next = i + step;
-            if next < 0 || next as usize >= self.bins {
-                return None;
-            }
-            let (a, b) = (self.at(i as usize), self.at(next as usize));
-            if a >= level && b < level {
-                let frac = (a - level) / (a - b).max(1e-9);
-                let (ta, tb) = (self.t_of(i as usize), self.t_of(next as usize));
+    /// Where, walking inwards from bin `outer` in direction `inward`, the width first reaches
+    /// `level`: a position along the axis, px, linearly interpolated between the two bins.
+    pub fn crossing_inward(&self, outer: usize, inward: isize, level: f32) -> Option<f32> {
+        let mut prev = outer as isize - inward;
+        let mut i = outer as isize;
+        while i >= 0 && (i as usize) < self.bins {
+            let b = self.at(i as usize);
+            if b >= level {
+                let a = if prev >= 0 {
+                    self.at(prev as usize)
+                } else {
+                    0.0
+                };
+                let frac = ((level - a) / (b - a).max(1e-9)).clamp(0.0, 1.0);
+                let (ta, tb) = (self.t_of(prev.max(0) as usize), self.t_of(i as usize));
+                let ta = if prev >= 0 {
+                    ta
+                } else {
+                    tb - inward as f32 * self.bin
+                };
                 return Some(ta + (tb - ta) * frac);
             }
-            i = next;
+            prev = i;
+            i += inward;
         }
+        None
     }
 
     /// Mean width over positions between `t0` and `t1` (either order), px.

@@ -131,16 +131,18 @@ pub fn measure(
         band,
     );
     let centre_bin = profile.bin_of(0.0);
-    let low = profile.body_end(centre_bin, -1, 0.15 * d);
-    let high = profile.body_end(centre_bin, 1, 0.15 * d);
+    // Gaps of up to a quarter of the half-length (a broken silhouette) are crossed.
+    let max_gap = (0.25 * half_length) as usize + 2;
+    let low = profile.body_end(centre_bin, -1, 0.15 * d, max_gap);
+    let high = profile.body_end(centre_bin, 1, 0.15 * d, max_gap);
     let lo50 = profile
-        .crossing(centre_bin, -1, 0.5 * d)
+        .crossing_inward(low, 1, 0.5 * d)
         .ok_or(ExtremesError::NoEnds)?;
     let hi50 = profile
-        .crossing(centre_bin, 1, 0.5 * d)
+        .crossing_inward(high, -1, 0.5 * d)
         .ok_or(ExtremesError::NoEnds)?;
     let length = hi50 - lo50;
-    if !(length > 0.0) {
+    if length.is_nan() || length <= 0.0 {
         return Err(ExtremesError::NoEnds);
     }
     // Mean width 3-10 % of the length inside each end: the ogive is narrow there, the tail full.
@@ -154,10 +156,10 @@ pub fn measure(
     } else {
         evidence >= 0.0
     };
-    let (nose_outer, nose_inward, nose50, tail_inward, tail50) = if nose_high {
-        (high, -1isize, hi50, 1isize, lo50)
+    let (nose_outer, nose_inward, nose50, tail_outer, tail_inward, tail50) = if nose_high {
+        (high, -1isize, hi50, low, 1isize, lo50)
     } else {
-        (low, 1isize, lo50, -1isize, hi50)
+        (low, 1isize, lo50, high, -1isize, hi50)
     };
     let nose_t = profile
         .ramp_zero(nose_outer, nose_inward, NOSE_RAMP.0 * d, NOSE_RAMP.1 * d)
@@ -169,11 +171,7 @@ pub fn measure(
         tail50 + inward * 0.08 * length,
     );
     let tail_t = profile
-        .crossing(
-            profile.bin_of(tail50 + inward * 0.05 * length),
-            -tail_inward,
-            0.5 * plateau,
-        )
+        .crossing_inward(tail_outer, tail_inward, 0.5 * plateau)
         .unwrap_or(tail50);
     // Express along an axis directed from the tail to the nose.
     let (axis, nose_t, tail_t) = if nose_high {

@@ -107,7 +107,7 @@ fn adjacent(a: &Moments, b: &Moments, gap: f32) -> bool {
 /// The two best-scoring candidates are compared as in the source paper (Section 5.2.2): when they
 /// lie close together (the plume trails the tail), the one whose mean intensity fits the body's
 /// polarity wins (the darker one for a dark body). Components of the winner's polarity lying
-/// along its axis, within half its length of its ends, are merged as fragments.
+/// along its axis, with a gap to it of at most half its length, are merged as fragments.
 pub fn select(
     candidates: &heapless::Vec<Candidate, MAX_COMPONENTS>,
     sigma: f32,
@@ -152,7 +152,10 @@ pub fn select(
         let (cx, cy) = c.moments.centroid();
         let (along, across) = shape.local(cx, cy);
         let lateral_limit = (3.0 * shape.minor_sd).max(2.0);
-        let on_axis = across.abs() <= lateral_limit && along.abs() <= 1.5 * half_length + 2.0;
+        // The gap between the two pieces' extents along the axis.
+        let fragment_half_length = 1.732 * Shape::of(&c.moments).major_sd;
+        let gap = along.abs() - half_length - fragment_half_length;
+        let on_axis = across.abs() <= lateral_limit && gap <= half_length.max(6.0);
         if on_axis && selection.parts.push(c.label).is_ok() {
             selection.moments.merge(&c.moments);
         }

@@ -154,7 +154,7 @@ fn parse_row(line: u64, raw: RawRow) -> Result<FrameRow, FrameRowError> {
     let chip_y0 = required_i64("chip_y0", &raw.chip_y0).map_err(err)?;
     let range_m = optional_f64("range_m", &raw.range_m).map_err(err)?;
     if let Some(r) = range_m
-        && !(r > 0.0)
+        && r <= 0.0
     {
         return Err(err(format!("range_m must be positive, got {r}")));
     }

@@ -1,0 +1,328 @@
+//! The core on hard and hostile chips: mask quality against the ray-cast truth, the exhaust
+//! plume, bright bodies, fragments, empty and saturated chips, noise that overflows capacities,
+//! and the yaw choice over a sequence.
+
+use imade_core::segment::CapacityKind;
+use imade_core::{
+    BodyPolarity, Camera, ChipView, Config, FrameInput, Pipeline, REF_1378X80, Status,
+};
+use imade_tests::render::{ChipStyle, Intrinsics, Rng, TruePose, chip_u8, project};
+
+const CAM: Intrinsics = Intrinsics {
+    fx: 100000.0,
+    fy: 100000.0,
+    cx: 1023.5,
+    cy: 1023.5,
+};
+const N: usize = 256;
+
+fn camera() -> Camera {
+    Camera {
+        fx: 100000.0,
+        fy: 100000.0,
+        cx: 1023.5,
+        cy: 1023.5,
+    }
+}
+
+fn style(sky: f64, body: f64) -> ChipStyle {
+    ChipStyle {
+        sky,
+        body,
+        gradient: (0.04, 0.02),
+        psf_sigma: 0.8,
+        noise: 2.0,
+    }
+}
+
+fn pose(range: f64, pitch: f64, yaw: f64) -> TruePose {
+    TruePose {
+        t: [4.0, -3.0, range],
+        pitch_deg: pitch,
+        yaw_deg: yaw,
+        roll_deg: 30.0,
+    }
+}
+
+fn origin_of(p: &TruePose, jitter: (i64, i64)) -> (i64, i64) {
+    let (u, v) = project(&CAM, p, [0.0; 3]);
+    (
+        u.round() as i64 - 128 + jitter.0,
+        v.round() as i64 - 128 + jitter.1,
+    )
+}
+
+fn process(
+    pipeline: &mut Pipeline,
+    pixels: &[u8],
+    origin: (i64, i64),
+    time_s: f64,
+    range: Option<f32>,
+) -> imade_core::FrameResult {
+    let chip = ChipView::gray8(pixels, N, N, N, origin.0 as i32, origin.1 as i32).unwrap();
+    pipeline.process(&FrameInput {
+        chip,
+        time_s,
+        range_m: range,
+    })
+}
+
+fn new_pipeline(config: Config) -> Box<Pipeline> {
+    Box::new(Pipeline::new(config, camera(), REF_1378X80))
+}
+
+fn iou(pipeline: &Pipeline, truth: &[bool]) -> f64 {
+    let mask = pipeline.mask();
+    let (mut inter, mut union) = (0usize, 0usize);
+    for y in 0..N {
+        for x in 0..N {
+            let (a, b) = (mask.get(x, y), truth[y * N + x]);
+            inter += usize::from(a && b);
+            union += usize::from(a || b);
+        }
+    }
+    inter as f64 / union.max(1) as f64
+}
+
+#[test]
+fn mask_matches_the_half_coverage_truth() {
+    for (range, pitch, yaw) in [
+        (1000.0, 20.0, -70.0),
+        (1500.0, -35.0, 120.0),
+        (2000.0, 50.0, 60.0),
+    ] {
+        let p = pose(range, pitch, yaw);
+        let origin = origin_of(&p, (17, -22));
+        let (pixels, truth) = chip_u8(&CAM, &p, origin, (N, N), &style(170.0, 60.0), &mut Rng(7));
+        let mut pipeline = new_pipeline(Config::DEFAULT);
+        let result = process(&mut pipeline, &pixels, origin, 0.0, None);
+        assert_eq!(result.status, Status::Ok);
+        let score = iou(&pipeline, &truth);
+        assert!(
+            score > 0.8,
+            "IoU {score} at {range} m, pitch {pitch}, yaw {yaw}"
+        );
+    }
+}
+
+/// A bright, flickering plume trailing the tail, as large as the body: the paper's rule keeps
+/// the darker component, and the pose stays right.
+#[test]
+fn rejects_a_bright_plume_behind_the_tail() {
+    let p = pose(1200.0, 15.0, -75.0);
+    let origin = origin_of(&p, (10, 12));
+    let (mut pixels, truth) = chip_u8(&CAM, &p, origin, (N, N), &style(150.0, 60.0), &mut Rng(3));
+    // Plume: a Gaussian blob 1.5 body lengths aft of the origin, along the projected axis.
+    let (tu, tv) = project(&CAM, &p, [-0.689, 0.0, 0.0]);
+    let (nu, nv) = project(&CAM, &p, [0.689, 0.0, 0.0]);
+    let (cx, cy) = (
+        tu + 0.35 * (tu - nu) - origin.0 as f64,
+        tv + 0.35 * (tv - nv) - origin.1 as f64,
+    );
+    for y in 0..N {
+        for x in 0..N {
+            let d2 = (x as f64 - cx).powi(2) + (y as f64 - cy).powi(2);
+            let glow = 90.0 * (-d2 / (2.0 * 9.0f64.powi(2))).exp();
+            let v = pixels[y * N + x] as f64 + glow;
+            pixels[y * N + x] = v.min(255.0) as u8;
+        }
+    }
+    let mut pipeline = new_pipeline(Config::DEFAULT);
+    let result = process(&mut pipeline, &pixels, origin, 0.0, Some(1200.0));
+    assert_eq!(result.status, Status::Ok);
+    assert!(
+        iou(&pipeline, &truth) > 0.7,
+        "the mask is the body, not the plume"
+    );
+    assert!(
+        (result.pose.pitch_deg - 15.0).abs() < 2.0,
+        "pitch {}",
+        result.pose.pitch_deg
+    );
+}
+
+#[test]
+fn finds_a_bright_body_on_a_dark_sky() {
+    let p = pose(1500.0, -10.0, 95.0);
+    let origin = origin_of(&p, (-25, 5));
+    let (pixels, truth) = chip_u8(&CAM, &p, origin, (N, N), &style(40.0, 200.0), &mut Rng(11));
+    let config = Config {
+        polarity: BodyPolarity::Bright,
+        ..Config::DEFAULT
+    };
+    let mut pipeline = new_pipeline(config);
+    let result = process(&mut pipeline, &pixels, origin, 0.0, Some(1500.0));
+    assert_eq!(result.status, Status::Ok);
+    assert!(iou(&pipeline, &truth) > 0.8);
+    assert!(
+        (result.pose.pitch_deg + 10.0).abs() < 1.0,
+        "pitch {}",
+        result.pose.pitch_deg
+    );
+}
+
+/// A band of sky across the middle of the body (a thin cloud) breaks the silhouette in two.
+#[test]
+fn merges_a_broken_silhouette() {
+    let p = pose(1000.0, 5.0, -60.0);
+    let origin = origin_of(&p, (0, 0));
+    let sky = style(170.0, 60.0);
+    let (mut pixels, _) = chip_u8(&CAM, &p, origin, (N, N), &sky, &mut Rng(5));
+    let (u, _) = project(&CAM, &p, [0.1, 0.0, 0.0]);
+    let column = (u - origin.0 as f64).round() as usize;
+    for y in 0..N {
+        for x in column..column + 3 {
+            pixels[y * N + x] = 170;
+        }
+    }
+    let mut pipeline = new_pipeline(Config::DEFAULT);
+    let result = process(&mut pipeline, &pixels, origin, 0.0, Some(1000.0));
+    assert_eq!(result.status, Status::Ok);
+    assert!(
+        (result.pose.pitch_deg - 5.0).abs() < 1.5,
+        "pitch {} {:?}",
+        result.pose.pitch_deg,
+        result.silhouette
+    );
+    let best = (result.pose.yaw_deg + 60.0)
+        .abs()
+        .min((result.yaw_alt_deg + 60.0).abs());
+    assert!(
+        best < 6.0,
+        "yaw {} / {}",
+        result.pose.yaw_deg,
+        result.yaw_alt_deg
+    );
+}
+
+#[test]
+fn empty_saturated_and_constant_chips_have_no_target() {
+    let mut rng = Rng(9);
+    let noisy: Vec<u8> = (0..N * N)
+        .map(|_| (120.0 + 3.0 * rng.gaussian()).round() as u8)
+        .collect();
+    for pixels in [
+        vec![0u8; N * N],
+        vec![255u8; N * N],
+        vec![97u8; N * N],
+        noisy,
+    ] {
+        let mut pipeline = new_pipeline(Config::DEFAULT);
+        let result = process(&mut pipeline, &pixels, (0, 0), 0.0, None);
+        assert_eq!(result.status, Status::NoTarget);
+        assert_eq!(pipeline.mask().count(), 0);
+    }
+}
+
+/// A pixel checkerboard is all noise to the noise estimate: a defined "no target", nothing
+/// painted. Coarse blocks and salt noise on a smooth sky overflow a capacity, and say which.
+#[test]
+fn worst_case_chips_give_defined_statuses() {
+    let checker: Vec<u8> = (0..N * N)
+        .map(|i| if (i % N + i / N) % 2 == 0 { 250 } else { 5 })
+        .collect();
+    let mut pipeline = new_pipeline(Config::DEFAULT);
+    let result = process(&mut pipeline, &checker, (0, 0), 0.0, None);
+    assert_eq!(result.status, Status::NoTarget);
+    assert_eq!(pipeline.mask().count(), 0);
+
+    // 4 x 4 blocks of both polarities: 16384 runs, more than the run table holds.
+    let blocks: Vec<u8> = (0..N * N)
+        .map(|i| {
+            if (i % N / 4 + i / N / 4) % 2 == 0 {
+                250
+            } else {
+                5
+            }
+        })
+        .collect();
+    let result = process(&mut pipeline, &blocks, (0, 0), 1.0, None);
+    assert_eq!(result.status, Status::Capacity);
+    assert!(result.capacity.is_some(), "{:?}", result.capacity);
+
+    // Isolated single dark pixels every 5th pixel of every 3rd row: 4400 labels, more than 512.
+    let salt: Vec<u8> = (0..N * N)
+        .map(|i| {
+            if (i / N) % 3 == 0 && (i % N) % 5 == 0 {
+                0
+            } else {
+                200
+            }
+        })
+        .collect();
+    let result = process(&mut pipeline, &salt, (0, 0), 2.0, None);
+    assert_eq!(result.status, Status::Capacity);
+    assert_eq!(result.capacity, Some(CapacityKind::Labels));
+}
+
+#[test]
+fn a_bad_range_or_camera_is_bad_input() {
+    let pixels = vec![100u8; N * N];
+    let mut pipeline = new_pipeline(Config::DEFAULT);
+    for range in [f32::NAN, -5.0, 0.0, f32::INFINITY] {
+        let result = process(&mut pipeline, &pixels, (0, 0), 0.0, Some(range));
+        assert_eq!(result.status, Status::BadInput, "range {range}");
+    }
+    let bad_camera = Camera {
+        fx: 0.0,
+        ..camera()
+    };
+    let mut pipeline: Pipeline = Pipeline::new(Config::DEFAULT, bad_camera, REF_1378X80);
+    let result = process(&mut pipeline, &pixels, (0, 0), 0.0, None);
+    assert_eq!(result.status, Status::BadInput);
+}
+
+/// A projectile flying away (range growing) and one flying towards the camera: after a few
+/// frames the range trend resolves the yaw candidates, with the range given and without it.
+#[test]
+fn the_range_trend_resolves_the_yaw_choice() {
+    for (yaw, rate, range_known) in [
+        (-60.0, 150.0, true),
+        (-120.0, -150.0, true),
+        (-45.0, 250.0, false),
+        (135.0, -250.0, false),
+    ] {
+        let mut pipeline = new_pipeline(Config::DEFAULT);
+        let mut last = None;
+        for k in 0..20 {
+            let t = k as f64 / 30.0;
+            let range = 1200.0 + rate * t;
+            let p = TruePose {
+                t: [2.0, -1.0, range],
+                pitch_deg: 10.0,
+                yaw_deg: yaw,
+                roll_deg: 10.0 * k as f64,
+            };
+            let origin = origin_of(&p, ((k * 7 % 31) as i64 - 15, (k * 5 % 23) as i64 - 11));
+            let (pixels, _) = chip_u8(
+                &CAM,
+                &p,
+                origin,
+                (N, N),
+                &style(170.0, 60.0),
+                &mut Rng(100 + k),
+            );
+            let r = process(
+                &mut pipeline,
+                &pixels,
+                origin,
+                50.0 + t,
+                range_known.then_some(range as f32),
+            );
+            assert_eq!(r.status, Status::Ok);
+            last = Some(r);
+        }
+        let r = last.unwrap();
+        assert!(
+            r.yaw_resolved,
+            "yaw {yaw}, rate {rate}, range known {range_known}"
+        );
+        let error = imade_core::pose::wrap_deg(r.pose.yaw_deg - yaw as f32).abs();
+        assert!(
+            error < 8.0,
+            "chose {} for {yaw} (alt {})",
+            r.pose.yaw_deg,
+            r.yaw_alt_deg
+        );
+    }
+}
