@@ -81,13 +81,14 @@ fn table1(launch_angle_deg: f64, time_of_day: &str, seed: u64) -> Scenario {
 fn clear_sky() -> Scenario {
     let mut s = table1(40.0, "09:00", 20240901);
     s.description =
-        "Clear morning sky, from 0.3 s after launch: hills behind the first frames".into();
+        "Clear morning sky, from 0.1 s after launch: hills behind the first frames".into();
     s.clip = ClipConfig {
         frames: 120,
-        start_time_s: 0.3,
+        start_time_s: 0.1,
         ..ClipConfig::default()
     };
     s.scene.weather = Weather::Clear;
+    s.scene.terrain_max_elevation_deg = 2.5;
     s.sensor.psf_sigma_px = 0.7;
     s
 }
@@ -112,9 +113,9 @@ fn low_contrast_plume() -> Scenario {
     s.description =
         "Hazy overcast dusk: a pale body barely darker than the sky, a bright plume".into();
     s.clip.frames = 120;
-    s.projectile.albedo = 0.3;
+    s.projectile.albedo = 0.5;
     s.scene.cloud_cover = 0.85;
-    s.scene.visibility_m = 3000.0;
+    s.scene.visibility_m = 2500.0;
     s.plume.brightness = 1.6;
     s.plume.length_calibers = 8.0;
     s.plume.flicker = 0.45;

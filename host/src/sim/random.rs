@@ -31,7 +31,11 @@ pub fn mix64(mut z: u64) -> u64 {
 
 /// A seeded generator with the few distributions the simulator needs, all computed here with
 /// `libm` so that the same seed gives the same numbers on every machine.
-pub struct Random(Pcg64);
+pub struct Random {
+    pcg: Pcg64,
+    /// The second normal of the last Box-Muller pair, not yet used.
+    spare: Option<f64>,
+}
 
 impl Random {
     /// The stream for `purpose` and `index` (a frame number, or 0 for clip-wide streams).
@@ -40,12 +44,15 @@ impl Random {
         let b = mix64(a ^ mix64(index.wrapping_add(0x5151)));
         let state = (u128::from(a) << 64) | u128::from(b);
         let stream = (u128::from(mix64(b)) << 64) | u128::from(mix64(a ^ b));
-        Random(Pcg64::new(state, stream))
+        Random {
+            pcg: Pcg64::new(state, stream),
+            spare: None,
+        }
     }
 
     /// Uniform in [0, 1), 53 random bits.
     pub fn uniform(&mut self) -> f64 {
-        (self.0.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+        (self.pcg.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
     }
 
     /// Uniform in [lo, hi).
@@ -53,11 +60,17 @@ impl Random {
         lo + (hi - lo) * self.uniform()
     }
 
-    /// Standard normal (Box-Muller, one value per call).
+    /// Standard normal (Box-Muller; each pair of uniforms gives two normals).
     pub fn gaussian(&mut self) -> f64 {
+        if let Some(z) = self.spare.take() {
+            return z;
+        }
         let u1 = 1.0 - self.uniform(); // (0, 1]
         let u2 = self.uniform();
-        libm::sqrt(-2.0 * libm::log(u1)) * libm::cos(2.0 * std::f64::consts::PI * u2)
+        let radius = libm::sqrt(-2.0 * libm::log(u1));
+        let (s, c) = libm::sincos(2.0 * std::f64::consts::PI * u2);
+        self.spare = Some(radius * s);
+        radius * c
     }
 
     /// A Poisson count with the given mean (exact by multiplication below 30, the normal

@@ -8,6 +8,9 @@
 /// No triangle covers the sample.
 const EMPTY: u32 = u32::MAX;
 
+/// A vertex in window-relative pixel coordinates with its inverse depth: (x, y, 1/z).
+type Local = (f64, f64, f64);
+
 /// A projected triangle vertex: full-frame pixel coordinates and camera depth (m, > 0).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScreenVertex {
@@ -71,7 +74,7 @@ impl SampleBuffer {
         // Window-relative coordinates keep the edge functions well conditioned.
         let local = |p: ScreenVertex| (p.u - self.x0 as f64, p.v - self.y0 as f64, 1.0 / p.z);
         let (a, mut b, mut c) = (local(tri[0]), local(tri[1]), local(tri[2]));
-        let edge = |p: (f64, f64, f64), q: (f64, f64, f64), x: f64, y: f64| {
+        let edge = |p: Local, q: Local, x: f64, y: f64| {
             (q.0 - p.0) * (y - p.1) - (q.1 - p.1) * (x - p.0)
         };
         let mut area = edge(a, b, c.0, c.1);
@@ -99,7 +102,14 @@ impl SampleBuffer {
         let row_len = self.width * self.s;
         for ky in ky0..=ky1 {
             let y = (ky as f64 + 0.5) / s - 0.5;
-            for kx in kx0..=kx1 {
+            // The row's span inside all three edges, widened by a sample: the exact test below
+            // decides, the span only saves visiting the whole bounding box.
+            let Some((x_lo, x_hi)) = row_span([(b, c), (c, a), (a, b)], y) else {
+                continue;
+            };
+            let first = (libm::ceil((x_lo + 0.5) * s - 0.5) - 1.0).max(kx0 as f64) as usize;
+            let last = (libm::floor((x_hi + 0.5) * s - 0.5) + 1.0).min(kx1 as f64) as usize;
+            for kx in first..=last {
                 let x = (kx as f64 + 0.5) / s - 0.5;
                 let wa = edge(b, c, x, y);
                 let wb = edge(c, a, x, y);
@@ -150,6 +160,25 @@ impl SampleBuffer {
         (px >= 0 && py >= 0 && (px as usize) < self.width && (py as usize) < self.height)
             .then_some((px as usize, py as usize))
     }
+}
+
+/// The interval of x where the edge functions of the three (p, q) edges are all >= 0 on row y
+/// (`None` where it is empty). An edge function (q - p) x (point - p) is linear in x.
+fn row_span(edges: [(Local, Local); 3], y: f64) -> Option<(f64, f64)> {
+    let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+    for (p, q) in edges {
+        // E(x) = c - d x with d = q.y - p.y.
+        let d = q.1 - p.1;
+        let c = (q.0 - p.0) * (y - p.1) + d * p.0;
+        if d > 0.0 {
+            hi = hi.min(c / d);
+        } else if d < 0.0 {
+            lo = lo.max(c / d);
+        } else if c < 0.0 {
+            return None;
+        }
+    }
+    (lo <= hi + 1e-9).then_some((lo, hi))
 }
 
 #[cfg(test)]

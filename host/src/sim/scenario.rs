@@ -87,7 +87,7 @@ impl Default for ProjectileConfig {
             model: super::model::REFERENCE_ID.to_string(),
             mesh: None,
             mesh_scale: 1.0,
-            albedo: 0.08,
+            albedo: 0.12,
         }
     }
 }

@@ -137,8 +137,8 @@ impl Environment {
                 scale: cfg.cloud_scale_m,
                 wind: cfg.wind_m_s,
                 threshold: 0.5 + 0.4 * (0.5 - cfg.cloud_cover),
-                density: fbm(key(), 12, 0.6),
-                shading: fbm(key(), 13, 0.8),
+                density: fbm(key(), 11, 0.6),
+                shading: fbm(key(), 10, 0.8),
             });
         Ok(Environment {
             sun,

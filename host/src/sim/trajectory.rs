@@ -11,6 +11,9 @@ use anyhow::{bail, ensure};
 
 /// Integration step with drag, s.
 const STEP_S: f64 = 1e-3;
+/// Bisection steps for the muzzle speed with drag (the bracket shrinks by 2^-44, far below
+/// a micrometre per second).
+const BISECTIONS: u32 = 44;
 
 /// Position and velocity of the body origin in W.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -175,7 +178,7 @@ impl Trajectory {
                 self.drag
             ),
         }
-        for _ in 0..60 {
+        for _ in 0..BISECTIONS {
             self.muzzle_speed = 0.5 * (lo + hi);
             match self.fly_to_height(dz) {
                 Some((reach, _)) if reach >= dx => hi = self.muzzle_speed,
