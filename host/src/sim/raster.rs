@@ -74,9 +74,8 @@ impl SampleBuffer {
         // Window-relative coordinates keep the edge functions well conditioned.
         let local = |p: ScreenVertex| (p.u - self.x0 as f64, p.v - self.y0 as f64, 1.0 / p.z);
         let (a, mut b, mut c) = (local(tri[0]), local(tri[1]), local(tri[2]));
-        let edge = |p: Local, q: Local, x: f64, y: f64| {
-            (q.0 - p.0) * (y - p.1) - (q.1 - p.1) * (x - p.0)
-        };
+        let edge =
+            |p: Local, q: Local, x: f64, y: f64| (q.0 - p.0) * (y - p.1) - (q.1 - p.1) * (x - p.0);
         let mut area = edge(a, b, c.0, c.1);
         if area == 0.0 || !area.is_finite() {
             return;
