@@ -124,6 +124,7 @@ pub fn plan_frames(scenario: &Scenario, trajectory: &Trajectory) -> anyhow::Resu
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::math::rad;
     use crate::sim::presets;
 
     fn small_plan() -> Vec<FramePlan> {
@@ -155,7 +156,7 @@ mod tests {
             let tail = k
                 .project(p.body.to_camera(Vec3::new(-0.689, 0.0, 0.0)))
                 .unwrap();
-            assert!((tip.0 - tail.0) * libm::sin(crate::sim::math::rad(p.attitude.yaw_deg)) > 0.0);
+            assert!((tip.0 - tail.0) * libm::sin(rad(p.attitude.yaw_deg)) > 0.0);
             assert!((tail.1 - tip.1) * p.attitude.pitch_deg > 0.0);
             // T is the body origin seen from the camera; its norm is the range.
             let back = p.camera.position + p.camera.r_cw.transpose() * p.body.translation;

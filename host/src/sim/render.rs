@@ -4,6 +4,7 @@
 
 use super::camera::{CameraPose, Intrinsics};
 use super::math::Vec3;
+use super::mesh::Mesh;
 use super::model::ProjectileModel;
 use super::plume::{Puff, add_plume};
 use super::pose::BodyPose;
@@ -174,7 +175,7 @@ fn body_samples(
     screen: &[ScreenVertex],
     (wx0, wy0, ww, wh): (i64, i64, usize, usize),
     supersampling: usize,
-    mesh: &super::mesh::Mesh,
+    mesh: &Mesh,
 ) -> SampleBuffer {
     let (mut u0, mut u1, mut v0, mut v1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     for p in screen {

@@ -2,6 +2,7 @@
 //! depend on the thread count), and writes the `imade-clip/1` folder with its ground truth.
 
 use super::camera::Intrinsics;
+use super::math::Vec3;
 use super::model::ProjectileModel;
 use super::plan::{FramePlan, intrinsics, plan_frames};
 use super::plume::puffs;
@@ -274,7 +275,7 @@ impl Summary {
         let k = &sim.intrinsics;
         let (u, v) = plan.target_px;
         let along = |x: f64| {
-            k.project(plan.body.to_camera(super::math::Vec3::new(x, 0.0, 0.0)))
+            k.project(plan.body.to_camera(Vec3::new(x, 0.0, 0.0)))
                 .unwrap_or((u, v))
         };
         let nose_x = sim
