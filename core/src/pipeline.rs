@@ -115,6 +115,7 @@ pub struct Pipeline<
     model: ProjectileModel,
     segmenter: Segmenter<MAX_RUNS, MAX_LABELS>,
     mask: ChipMask,
+    prior: ChipMask,
     temporal: Temporal,
 }
 
@@ -127,6 +128,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABE
             model,
             segmenter: Segmenter::new(),
             mask: ChipMask::new(),
+            prior: ChipMask::new(),
             temporal: Temporal::new(),
         }
     }
@@ -141,14 +143,22 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABE
         &self.mask
     }
 
+    /// The shape prior of the last frame: the model's silhouette rendered at the estimated pose,
+    /// chip-sized (empty when no pose was estimated or no lookup table is loaded).
+    pub fn prior(&self) -> &ChipMask {
+        &self.prior
+    }
+
     /// Forgets the temporal state (a new clip).
     pub fn reset(&mut self) {
         self.temporal.reset();
         self.mask.clear();
+        self.prior.clear();
     }
 
     /// Processes one frame.
     pub fn process(&mut self, input: &FrameInput) -> FrameResult {
+        self.prior.clear();
         let range = match (input.range_m, self.config.range_use) {
             (Some(r), RangeUse::Auto) => {
                 if !(r.is_finite() && r > 0.0) {
