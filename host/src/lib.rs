@@ -1,9 +1,16 @@
 //! The imade harness: everything around the no_std core that needs `std`.
 //!
-//! - [`clip`]: the `imade-clip/1` recorded-clip format, read and written.
-//! - [`run`]: `imade run`, the core's pipeline over clips.
+//! - [`clip`]: the `imade-clip/1` recorded-clip format, read and written, and imade-results/1 read.
+//! - [`eval`]: `imade eval`, results against ground truth beside the paper's figures.
+//! - [`exit`]: the binary's exit codes.
+//! - [`run`]: `imade run`, the core's pipeline over clips; [`summary`] its JSON summary, [`stages`]
+//!   the segmentation stages whose masks it saves.
 //! - [`sim`]: the clip simulator (`imade simulate`), with its own renderer, independent of the core.
 
 pub mod clip;
+pub mod eval;
+pub mod exit;
 pub mod run;
 pub mod sim;
+pub mod stages;
+pub mod summary;

@@ -17,6 +17,8 @@ struct Cli {
 enum Command {
     /// Estimate the pose in every frame of recorded clips; write imade-results/1 CSVs.
     Run(imade_host::run::RunArgs),
+    /// Score a results file against the clip's ground truth, beside the paper's figures.
+    Eval(imade_host::eval::EvalArgs),
     /// Render a deterministic simulated clip (imade-clip/1) with ground truth.
     Simulate(imade_host::sim::SimulateArgs),
 }
@@ -25,13 +27,11 @@ fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let outcome = match cli.command {
         Command::Run(args) => imade_host::run::run(&args),
+        Command::Eval(args) => imade_host::eval::run(&args),
         Command::Simulate(args) => imade_host::sim::run(&args),
     };
-    match outcome {
-        Ok(()) => std::process::ExitCode::SUCCESS,
-        Err(error) => {
-            eprintln!("imade: error: {error:#}");
-            std::process::ExitCode::from(1)
-        }
+    if let Err(error) = &outcome {
+        eprintln!("imade: error: {error:#}");
     }
+    std::process::ExitCode::from(imade_host::exit::exit_code(&outcome))
 }

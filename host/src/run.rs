@@ -1,9 +1,16 @@
-//! `imade run`: the core's pipeline over recorded clips, one imade-results/1 CSV per clip.
+//! `imade run`: the core's pipeline over recorded clips, in parallel across clips; one
+//! imade-results/1 CSV per clip (written atomically), optional per-stage masks, and a JSON summary.
 
-use crate::clip::{Clip, FrameRow, load_chip, write_atomically};
+use crate::clip::{Clip, FrameRow, load_chip, save_mask, write_atomically};
+use crate::exit::PartialFailure;
+use crate::stages::{STAGES, mask_file_name};
+use crate::summary::{ClipSummary, Problem, RunSummary, SUMMARY_FORMAT};
 use anyhow::{Context, bail};
 use imade_core::{Camera, Config, FrameInput, Pipeline, RangeUse, Status, built_in_model, results};
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 /// How range measurements in a clip are used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -16,70 +23,133 @@ pub enum RangeArg {
     Ignore,
 }
 
+impl RangeArg {
+    /// The name as given on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            RangeArg::Auto => "auto",
+            RangeArg::Given => "given",
+            RangeArg::Ignore => "ignore",
+        }
+    }
+
+    /// The core configuration for this range use.
+    pub fn config(self) -> Config {
+        Config {
+            range_use: match self {
+                RangeArg::Auto | RangeArg::Given => RangeUse::Auto,
+                RangeArg::Ignore => RangeUse::Ignore,
+            },
+            ..Config::DEFAULT
+        }
+    }
+}
+
 /// Arguments of `imade run`.
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {
     /// Clip folders (imade-clip/1).
     #[arg(required = true)]
     pub clips: Vec<PathBuf>,
-    /// Output folder: `results.csv` for one clip, `<clip name>/results.csv` for several.
+    /// Output folder: `results.csv` for one clip, `<clip name>/results.csv` for several, and
+    /// `summary.json`.
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
     /// How range measurements are used.
     #[arg(long, value_enum, default_value = "auto")]
     pub range: RangeArg,
+    /// Also write each frame's mask of every segmentation stage beside the results
+    /// (`masks/NNNNNN.png`, `priors/NNNNNN.png`, 8-bit, 0 or 255).
+    #[arg(long)]
+    pub save_masks: bool,
+    /// Silhouette table of the table match: `bundled` (fixtures/lut/<projectile>.lut), `none`
+    /// (closed form only), or a table file.
+    #[arg(long, default_value = "bundled")]
+    pub lut: String,
 }
 
-/// Counts of a processed clip.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct ClipSummary {
-    /// Rows written (one per frame row of `frames.csv`).
-    pub frames: usize,
-    /// Frames with a pose.
-    pub ok: usize,
-    /// Frames whose input was unusable (bad row, bad chip).
-    pub bad_input: usize,
+/// One clip to process and where its results go.
+#[derive(Debug, Clone)]
+pub struct Job {
+    /// The clip folder.
+    pub clip: PathBuf,
+    /// Folder for `results.csv` and the stage masks.
+    pub out_dir: PathBuf,
+    /// How range measurements are used.
+    pub range: RangeArg,
+    /// Write the stage masks.
+    pub save_masks: bool,
+    /// The table choice (see [`RunArgs::lut`]).
+    pub lut: String,
 }
 
-/// Runs `imade run`: every clip, each independently (a clip that cannot be opened is reported and
-/// the others still run).
+/// Runs `imade run`. Every clip is processed independently; the outcome is an error carrying
+/// a [`PartialFailure`] when any frame or clip had unusable input.
 pub fn run(args: &RunArgs) -> anyhow::Result<()> {
-    let config = Config {
-        range_use: match args.range {
-            RangeArg::Auto | RangeArg::Given => RangeUse::Auto,
-            RangeArg::Ignore => RangeUse::Ignore,
-        },
-        ..Config::DEFAULT
-    };
-    let mut failed = 0usize;
-    for dir in &args.clips {
-        let out = if args.clips.len() == 1 {
-            args.out.join("results.csv")
-        } else {
-            args.out.join(clip_name(dir)).join("results.csv")
-        };
-        match run_clip(dir, &out, &config) {
-            Ok(summary) => eprintln!(
+    let jobs = plan(args)?;
+    let summary = run_jobs(&jobs);
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let path = args.out.join("summary.json");
+    write_atomically(&path, serde_json::to_string_pretty(&summary)?.as_bytes())?;
+    for clip in &summary.clips {
+        if let Some(results) = &clip.results {
+            eprintln!(
                 "{}: {} frames, {} with a pose, {} with bad input -> {}",
-                dir.display(),
-                summary.frames,
-                summary.ok,
-                summary.bad_input,
-                out.display()
-            ),
-            Err(error) => {
-                failed += 1;
-                eprintln!("imade: error: {}: {error:#}", dir.display());
-            }
+                clip.clip.display(),
+                clip.frames,
+                clip.ok(),
+                clip.problems.len(),
+                results.display()
+            );
         }
     }
+    outcome(&summary)
+}
+
+/// The outcome of a run: Ok when every clip and frame was readable.
+pub fn outcome(summary: &RunSummary) -> anyhow::Result<()> {
+    let failed = summary.failed_clips();
     if failed > 0 {
-        bail!(
-            "{failed} of {} clips could not be processed",
-            args.clips.len()
-        );
+        return Err(PartialFailure::BadClips {
+            failed,
+            total: summary.clips.len(),
+        }
+        .into());
     }
-    Ok(())
+    match summary.bad_frames() {
+        0 => Ok(()),
+        frames => Err(PartialFailure::BadFrames { frames }.into()),
+    }
+}
+
+/// One job per clip; output folders must not collide.
+fn plan(args: &RunArgs) -> anyhow::Result<Vec<Job>> {
+    let single = args.clips.len() == 1;
+    let jobs: Vec<Job> = args
+        .clips
+        .iter()
+        .map(|clip| Job {
+            clip: clip.clone(),
+            out_dir: if single {
+                args.out.clone()
+            } else {
+                args.out.join(clip_name(clip))
+            },
+            range: args.range,
+            save_masks: args.save_masks,
+            lut: args.lut.clone(),
+        })
+        .collect();
+    for (i, job) in jobs.iter().enumerate() {
+        if jobs[..i].iter().any(|j| j.out_dir == job.out_dir) {
+            bail!(
+                "two clips would write to {}: give clips with distinct folder names",
+                job.out_dir.display()
+            );
+        }
+    }
+    Ok(jobs)
 }
 
 fn clip_name(dir: &Path) -> String {
@@ -88,13 +158,56 @@ fn clip_name(dir: &Path) -> String {
         .unwrap_or_else(|| "clip".into())
 }
 
-/// Processes one clip and writes its results CSV atomically.
-pub fn run_clip(dir: &Path, out: &Path, config: &Config) -> anyhow::Result<ClipSummary> {
-    let clip = Clip::open(dir)?;
+/// Runs the jobs in parallel (rayon), with one progress bar over all frames on a terminal
+/// (nothing is drawn when stderr is not one). Problems are printed as they are found.
+pub fn run_jobs(jobs: &[Job]) -> RunSummary {
+    let opened: Vec<anyhow::Result<Clip>> = jobs.iter().map(|j| Clip::open(&j.clip)).collect();
+    let total: usize = opened
+        .iter()
+        .filter_map(|c| c.as_ref().ok())
+        .map(|c| c.frames.len())
+        .sum();
+    let bar = ProgressBar::new(total as u64);
+    if let Ok(style) =
+        ProgressStyle::with_template("{elapsed:>4} [{bar:40}] {pos}/{len} frames, eta {eta}")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    let clips = jobs
+        .par_iter()
+        .zip(opened)
+        .map(|(job, clip)| {
+            let started = Instant::now();
+            let mut summary = match clip.and_then(|clip| run_clip(&clip, job, &bar)) {
+                Ok(summary) => summary,
+                Err(error) => {
+                    let error = format!("{error:#}");
+                    bar.suspend(|| eprintln!("imade: error: {}: {error}", job.clip.display()));
+                    ClipSummary {
+                        clip: job.clip.clone(),
+                        range: job.range.name().into(),
+                        error: Some(error),
+                        ..ClipSummary::default()
+                    }
+                }
+            };
+            summary.seconds = started.elapsed().as_secs_f64();
+            summary
+        })
+        .collect();
+    bar.finish_and_clear();
+    RunSummary {
+        format: SUMMARY_FORMAT.into(),
+        clips,
+    }
+}
+
+/// The pipeline for a clip's camera and projectile.
+fn pipeline_for(clip: &Clip, config: Config, lut: &str) -> anyhow::Result<Box<Pipeline>> {
     let model = built_in_model(&clip.meta.projectile).with_context(|| {
         format!(
             "{}: unknown projectile {:?}",
-            dir.join("clip.json").display(),
+            clip.dir.join("clip.json").display(),
             clip.meta.projectile
         )
     })?;
@@ -105,39 +218,122 @@ pub fn run_clip(dir: &Path, out: &Path, config: &Config) -> anyhow::Result<ClipS
         cx: c.cx as f32,
         cy: c.cy as f32,
     };
-    let mut pipeline: Box<Pipeline> = Box::new(Pipeline::new(*config, camera, *model));
+    let pipeline = Pipeline::new(config, camera, *model);
+    Ok(Box::new(match crate::lut::table_for(lut, model)? {
+        Some(table) => pipeline.with_table(table),
+        None => pipeline,
+    }))
+}
+
+/// Processes one opened clip and writes its results CSV atomically (and the stage masks).
+pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<ClipSummary> {
+    let mut pipeline = pipeline_for(clip, job.range.config(), &job.lut)?;
+    prepare_mask_folders(&job.out_dir, job.save_masks)?;
     let mut csv = String::from(results::HEADER);
     csv.push('\n');
-    let mut summary = ClipSummary::default();
+    let mut summary = ClipSummary {
+        clip: clip.dir.clone(),
+        range: job.range.name().into(),
+        ..ClipSummary::default()
+    };
     for entry in &clip.frames {
-        summary.frames += 1;
-        let written = match entry {
-            Ok(row) => match process_frame(&clip, row, &mut pipeline) {
+        bar.inc(1);
+        let status = match entry {
+            Ok(row) => match process_frame(clip, row, &mut pipeline) {
                 Ok(result) => {
-                    summary.ok += usize::from(result.status == Status::Ok);
                     results::write_row(&mut csv, row.frame, &result)
+                        .context("formatting a results row")?;
+                    if job.save_masks && result.status != Status::BadInput {
+                        save_stage_masks(&pipeline, &job.out_dir, row.frame)?;
+                    }
+                    result.status.as_str()
                 }
                 Err(error) => {
-                    summary.bad_input += 1;
-                    eprintln!("imade: {}: frame {}: {error:#}", dir.display(), row.frame);
+                    let message = format!("frame {}: {error:#}", row.frame);
+                    report(bar, &mut summary, row.line, Some(row.frame), message);
                     results::write_status_row(&mut csv, Some(row.frame), "bad_chip")
+                        .context("formatting a results row")?;
+                    "bad_chip"
                 }
             },
             Err(error) => {
-                summary.bad_input += 1;
-                eprintln!("imade: {}: {error}", dir.display());
+                let message = format!("{}: {error}", clip.dir.join("frames.csv").display());
+                report(bar, &mut summary, error.line, error.frame, message);
                 results::write_status_row(&mut csv, error.frame, "bad_row")
+                    .context("formatting a results row")?;
+                "bad_row"
             }
         };
-        written.context("formatting a results row")?;
+        summary.count(status);
         csv.push('\n');
     }
-    if let Some(parent) = out.parent() {
-        std::fs::create_dir_all(parent)
-            .with_context(|| format!("creating {}", parent.display()))?;
-    }
-    write_atomically(out, csv.as_bytes())?;
+    let out = job.out_dir.join("results.csv");
+    write_atomically(&out, csv.as_bytes())?;
+    summary.results = Some(out);
     Ok(summary)
+}
+
+/// Records and prints one unusable frame.
+fn report(
+    bar: &ProgressBar,
+    summary: &mut ClipSummary,
+    line: u64,
+    frame: Option<u64>,
+    message: String,
+) {
+    bar.suspend(|| eprintln!("imade: {message}"));
+    summary.problems.push(Problem {
+        line,
+        frame,
+        message,
+    });
+}
+
+/// Creates the output folder; removes stage masks of an earlier run (they would not match the
+/// new results) and creates the stage folders when masks are to be written.
+fn prepare_mask_folders(out_dir: &Path, save_masks: bool) -> anyhow::Result<()> {
+    std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
+    for stage in STAGES {
+        let dir = out_dir.join(stage.folder);
+        if dir.is_dir() {
+            for entry in
+                std::fs::read_dir(&dir).with_context(|| format!("listing {}", dir.display()))?
+            {
+                let path = entry?.path();
+                if is_mask_file(&path) {
+                    std::fs::remove_file(&path)
+                        .with_context(|| format!("removing {}", path.display()))?;
+                }
+            }
+        }
+        if save_masks {
+            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// True for a `NNNNNN.png` stage mask file name.
+fn is_mask_file(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e == "png")
+        && path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .is_some_and(|s| s.len() >= 6 && s.bytes().all(|b| b.is_ascii_digit()))
+}
+
+/// Writes every stage's non-empty mask of the frame just processed.
+fn save_stage_masks(pipeline: &Pipeline, out_dir: &Path, frame: u64) -> anyhow::Result<()> {
+    for stage in STAGES {
+        let mask = (stage.mask)(pipeline);
+        if mask.count() > 0 {
+            save_mask(
+                mask,
+                &out_dir.join(stage.folder).join(mask_file_name(frame)),
+            )?;
+        }
+    }
+    Ok(())
 }
 
 /// Loads a frame's chip and runs the pipeline on it.

@@ -7,12 +7,16 @@
 
 mod chip_image;
 mod frames;
+mod mask_png;
 mod meta;
+mod results;
 mod writer;
 
 pub use chip_image::{ChipImage, ChipPixels, load_chip, load_mask};
 pub use frames::{FrameRow, FrameRowError, GroundTruth, read_frames};
+pub use mask_png::{mask_image, save_mask};
 pub use meta::{CameraMeta, ChipSize, ClipMeta, FORMAT_ID, read_meta};
+pub use results::{ResultRow, read_results};
 pub use writer::{ClipWriter, write_atomically};
 
 use std::path::{Path, PathBuf};

@@ -1,0 +1,70 @@
+//! Reading imade-results/1 CSVs (the rows are written by `imade_core::results`).
+
+use anyhow::{Context, bail};
+use serde::Deserialize;
+use std::path::Path;
+
+/// One row of an imade-results/1 file. Pose fields are present only where `status` is `ok`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+pub struct ResultRow {
+    /// The input frame number (empty for a `frames.csv` row whose number could not be read).
+    pub frame: Option<u64>,
+    /// `ok` or the reason there is no pose.
+    pub status: String,
+    /// Estimated body origin in the camera frame, m.
+    pub tx_m: Option<f64>,
+    /// See `tx_m`.
+    pub ty_m: Option<f64>,
+    /// Estimated depth, m.
+    pub tz_m: Option<f64>,
+    /// Pitch of the chosen candidate, deg.
+    pub pitch_deg: Option<f64>,
+    /// Yaw of the chosen candidate, deg.
+    pub yaw_deg: Option<f64>,
+    /// Yaw of the mirrored candidate, deg.
+    pub yaw_alt_deg: Option<f64>,
+    /// True where the choice between the candidates is resolved.
+    pub yaw_resolved: bool,
+    /// True where a range measurement fixed Tz.
+    pub range_used: bool,
+    /// Roll modulo 90 deg, where estimated.
+    pub roll_deg: Option<f64>,
+    /// Pitch of the mirrored candidate, deg (an imade column).
+    #[serde(default)]
+    pub pitch_alt_deg: Option<f64>,
+    /// Slant range measured from the image, m (an imade column).
+    #[serde(default)]
+    pub image_range_m: Option<f64>,
+}
+
+impl ResultRow {
+    /// True where the frame has a pose.
+    pub fn is_ok(&self) -> bool {
+        self.status == "ok"
+    }
+}
+
+/// Reads an imade-results/1 file; a malformed row fails the whole file, naming its line.
+pub fn read_results(path: &Path) -> anyhow::Result<Vec<ResultRow>> {
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_path(path)
+        .with_context(|| format!("opening {}", path.display()))?;
+    let mut rows = Vec::new();
+    for record in reader.deserialize::<ResultRow>() {
+        let row = record.with_context(|| format!("reading {}", path.display()))?;
+        if row.is_ok()
+            && [row.tx_m, row.ty_m, row.tz_m, row.pitch_deg, row.yaw_deg]
+                .iter()
+                .any(Option::is_none)
+        {
+            bail!(
+                "{}: frame {:?} is ok but lacks a pose column",
+                path.display(),
+                row.frame
+            );
+        }
+        rows.push(row);
+    }
+    Ok(rows)
+}

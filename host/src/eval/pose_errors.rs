@@ -1,0 +1,207 @@
+//! 1-km-normalized pose errors (../shared/spec/geometry.md): |estimate - truth| / (Tz_true / 1 km),
+//! angle differences wrapped to (-180, 180].
+
+use super::paper::{Parameter, RangeCase, pose_accuracy};
+use super::stats::{Summary, summarize};
+use crate::clip::{GroundTruth, ResultRow};
+use serde::Serialize;
+use std::collections::HashMap;
+
+/// The normalized errors of one frame with a pose and ground truth.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FrameErrors {
+    /// Frame number.
+    pub frame: u64,
+    /// True depth, m.
+    pub tz_true_m: f64,
+    /// Tx error, m/km.
+    pub tx: f64,
+    /// Ty error, m/km.
+    pub ty: f64,
+    /// Tz error, m/km.
+    pub tz: f64,
+    /// Pitch error of the chosen candidate, deg/km.
+    pub pitch: f64,
+    /// Yaw error of the chosen candidate, deg/km.
+    pub yaw: f64,
+    /// Yaw error of the better candidate, deg/km.
+    pub yaw_best: f64,
+    /// True when the chosen candidate is the better one.
+    pub yaw_choice_correct: bool,
+    /// True when a range measurement fixed Tz in this frame.
+    pub range_used: bool,
+}
+
+impl FrameErrors {
+    /// The error of one parameter.
+    pub fn get(&self, parameter: Parameter) -> f64 {
+        match parameter {
+            Parameter::Tx => self.tx,
+            Parameter::Ty => self.ty,
+            Parameter::Tz => self.tz,
+            Parameter::Pitch => self.pitch,
+            Parameter::Yaw => self.yaw,
+            Parameter::YawBest => self.yaw_best,
+        }
+    }
+}
+
+/// The statistics of one parameter's errors beside the paper's figure.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ParameterErrors {
+    /// The parameter.
+    pub parameter: Parameter,
+    /// Unit of the errors.
+    pub unit: &'static str,
+    /// Median, mean, p90 (None without any frame).
+    pub stats: Option<Summary>,
+    /// The paper's figure for this range case, where it gave one.
+    pub paper: Option<f64>,
+}
+
+/// Pose accuracy of one results file against the clip's truth.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PoseEvaluation {
+    /// Known range when most frames with a pose used a range measurement.
+    pub case: RangeCase,
+    /// Frames of the clip with ground truth.
+    pub frames_with_truth: usize,
+    /// Of those, frames with a pose.
+    pub frames_with_pose: usize,
+    /// Per parameter, in [`Parameter::ALL`] order.
+    pub parameters: Vec<ParameterErrors>,
+    /// Fraction of frames with a pose whose chosen yaw candidate is the better one.
+    pub yaw_choice_correct: Option<f64>,
+    /// Per-frame errors.
+    pub frames: Vec<FrameErrors>,
+}
+
+/// Wraps an angle difference to (-180, 180] deg.
+pub fn wrap_deg(d: f64) -> f64 {
+    let w = d.rem_euclid(360.0);
+    if w > 180.0 { w - 360.0 } else { w }
+}
+
+/// The errors of one frame; None unless the row has a pose.
+pub fn frame_errors(frame: u64, truth: &GroundTruth, row: &ResultRow) -> Option<FrameErrors> {
+    if !row.is_ok() || truth.tz_m.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return None;
+    }
+    let km = truth.tz_m / 1000.0;
+    let err = |estimate: f64, truth: f64| (estimate - truth).abs() / km;
+    let angle = |estimate: f64, truth: f64| wrap_deg(estimate - truth).abs() / km;
+    let yaw = angle(row.yaw_deg?, truth.yaw_deg);
+    let yaw_alt = row
+        .yaw_alt_deg
+        .map_or(f64::INFINITY, |a| angle(a, truth.yaw_deg));
+    Some(FrameErrors {
+        frame,
+        tz_true_m: truth.tz_m,
+        tx: err(row.tx_m?, truth.tx_m),
+        ty: err(row.ty_m?, truth.ty_m),
+        tz: err(row.tz_m?, truth.tz_m),
+        pitch: angle(row.pitch_deg?, truth.pitch_deg),
+        yaw,
+        yaw_best: yaw.min(yaw_alt),
+        yaw_choice_correct: yaw <= yaw_alt,
+        range_used: row.range_used,
+    })
+}
+
+/// Evaluates results against the truth of `(frame, truth)` pairs.
+pub fn evaluate(truth: &[(u64, GroundTruth)], results: &[ResultRow]) -> PoseEvaluation {
+    let by_frame: HashMap<u64, &ResultRow> = results
+        .iter()
+        .filter_map(|r| r.frame.map(|f| (f, r)))
+        .collect();
+    let frames: Vec<FrameErrors> = truth
+        .iter()
+        .filter_map(|(frame, t)| frame_errors(*frame, t, by_frame.get(frame)?))
+        .collect();
+    let ranged = frames.iter().filter(|f| f.range_used).count();
+    let case = if 2 * ranged > frames.len() {
+        RangeCase::Known
+    } else {
+        RangeCase::Unknown
+    };
+    let parameters = Parameter::ALL
+        .iter()
+        .map(|&parameter| ParameterErrors {
+            parameter,
+            unit: parameter.unit(),
+            stats: summarize(&frames.iter().map(|f| f.get(parameter)).collect::<Vec<_>>()),
+            paper: pose_accuracy(case, parameter),
+        })
+        .collect();
+    let correct = frames.iter().filter(|f| f.yaw_choice_correct).count();
+    PoseEvaluation {
+        case,
+        frames_with_truth: truth.len(),
+        frames_with_pose: frames.len(),
+        parameters,
+        yaw_choice_correct: (!frames.is_empty()).then(|| correct as f64 / frames.len() as f64),
+        frames,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn truth() -> GroundTruth {
+        GroundTruth {
+            tx_m: 1.0,
+            ty_m: -2.0,
+            tz_m: 2000.0,
+            pitch_deg: 10.0,
+            yaw_deg: 179.0,
+            roll_deg: 0.0,
+        }
+    }
+
+    fn row(yaw: f64, yaw_alt: f64) -> ResultRow {
+        ResultRow {
+            frame: Some(7),
+            status: "ok".into(),
+            tx_m: Some(1.3),
+            ty_m: Some(-2.0),
+            tz_m: Some(1900.0),
+            pitch_deg: Some(4.0),
+            yaw_deg: Some(yaw),
+            yaw_alt_deg: Some(yaw_alt),
+            yaw_resolved: false,
+            range_used: false,
+            roll_deg: None,
+            pitch_alt_deg: None,
+            image_range_m: None,
+        }
+    }
+
+    #[test]
+    fn errors_are_normalized_to_one_km_and_wrapped() {
+        // At 2 km every absolute error is halved; yaw -179 is 2 deg from 179 across the wrap.
+        let e = frame_errors(7, &truth(), &row(-179.0, 0.0)).unwrap();
+        assert!((e.tx - 0.15).abs() < 1e-9);
+        assert!((e.tz - 50.0).abs() < 1e-9);
+        assert!((e.pitch - 3.0).abs() < 1e-9);
+        assert!((e.yaw - 1.0).abs() < 1e-9);
+        assert!(e.yaw_choice_correct);
+    }
+
+    #[test]
+    fn the_better_candidate_and_the_choice_are_scored() {
+        let e = frame_errors(7, &truth(), &row(1.0, 171.0)).unwrap();
+        assert!((e.yaw - 89.0).abs() < 1e-9);
+        assert!((e.yaw_best - 4.0).abs() < 1e-9);
+        assert!(!e.yaw_choice_correct);
+        let failed = ResultRow {
+            status: "no_target".into(),
+            ..row(0.0, 0.0)
+        };
+        assert!(frame_errors(7, &truth(), &failed).is_none());
+        let eval = evaluate(&[(7, truth()), (8, truth())], &[row(1.0, 171.0)]);
+        assert_eq!((eval.frames_with_truth, eval.frames_with_pose), (2, 1));
+        assert_eq!(eval.case, RangeCase::Unknown);
+        assert_eq!(eval.yaw_choice_correct, Some(0.0));
+    }
+}

@@ -1,0 +1,132 @@
+//! The markdown report of one or more evaluations, side by side with the paper's figures.
+
+use super::Evaluation;
+use super::paper::Parameter;
+use std::fmt::Write;
+
+/// A number with precision suited to its size.
+fn num(v: f64) -> String {
+    let a = v.abs();
+    if a < 1.0 {
+        format!("{v:.3}")
+    } else if a < 100.0 {
+        format!("{v:.2}")
+    } else {
+        format!("{v:.1}")
+    }
+}
+
+fn opt(v: Option<f64>, f: impl Fn(f64) -> String) -> String {
+    v.map_or_else(|| "-".into(), f)
+}
+
+/// The report: a pose-error table with one column group per evaluation, then the IoU table.
+pub fn markdown(evaluations: &[&Evaluation]) -> String {
+    let mut s = String::new();
+    // Writing to a String cannot fail.
+    let _ = write_pose_table(&mut s, evaluations);
+    let _ = write_iou_table(&mut s, evaluations);
+    s
+}
+
+fn write_pose_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Result {
+    writeln!(
+        s,
+        "### Pose errors normalized to 1 km (|estimate - truth| / true depth in km)\n"
+    )?;
+    for e in evaluations {
+        writeln!(
+            s,
+            "- {}: `{}` on `{}`: {} of {} frames with truth have a pose ({} result rows)",
+            e.pose.case.label(),
+            e.results.display(),
+            e.clip.display(),
+            e.pose.frames_with_pose,
+            e.pose.frames_with_truth,
+            e.result_rows
+        )?;
+    }
+    write!(s, "\n| parameter | unit |")?;
+    for e in evaluations {
+        write!(
+            s,
+            " {} median | mean | p90 | paper (about) |",
+            e.pose.case.label()
+        )?;
+    }
+    write!(s, "\n| --- | --- |")?;
+    for _ in evaluations {
+        write!(s, " ---: | ---: | ---: | ---: |")?;
+    }
+    writeln!(s)?;
+    for (i, parameter) in Parameter::ALL.iter().enumerate() {
+        write!(s, "| {} | {} |", parameter.label(), parameter.unit())?;
+        for e in evaluations {
+            let p = e.pose.parameters.get(i);
+            let stats = p.and_then(|p| p.stats);
+            write!(
+                s,
+                " {} | {} | {} | {} |",
+                opt(stats.map(|x| x.median), num),
+                opt(stats.map(|x| x.mean), num),
+                opt(stats.map(|x| x.p90), num),
+                opt(p.and_then(|p| p.paper), num)
+            )?;
+        }
+        writeln!(s)?;
+    }
+    write!(s, "| yaw choice correct | % |")?;
+    for e in evaluations {
+        write!(
+            s,
+            " {} | | | |",
+            opt(e.pose.yaw_choice_correct, |f| format!("{:.1}", 100.0 * f))
+        )?;
+    }
+    writeln!(s, "\n")
+}
+
+fn write_iou_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Result {
+    writeln!(
+        s,
+        "### Segmentation IoU against the ground-truth masks (a frame without a mask scores 0)\n"
+    )?;
+    if evaluations.iter().all(|e| e.segmentation.is_empty()) {
+        return writeln!(
+            s,
+            "No stage masks beside the results (run with `--save-masks`).\n"
+        );
+    }
+    writeln!(
+        s,
+        "| run | stage | frames | no mask | min | q1 | median | q3 | max | mean | paper median |"
+    )?;
+    writeln!(
+        s,
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |"
+    )?;
+    for e in evaluations {
+        for stage in &e.segmentation {
+            let b = stage.stats;
+            writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                e.pose.case.label(),
+                stage.stage,
+                stage.frames,
+                stage.missing,
+                opt(b.map(|x| x.min), num),
+                opt(b.map(|x| x.q1), num),
+                opt(b.map(|x| x.median), num),
+                opt(b.map(|x| x.q3), num),
+                opt(b.map(|x| x.max), num),
+                opt(b.map(|x| x.mean), num),
+                stage.paper.map_or_else(
+                    || "-".into(),
+                    |p| format!("{} ({})", num(p.median), p.method)
+                )
+            )?;
+        }
+    }
+    writeln!(s)
+}
