@@ -249,7 +249,12 @@ pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<Cli
                     result.status.as_str()
                 }
                 Err(error) => {
-                    let message = format!("frame {}: {error:#}", row.frame);
+                    let message = format!(
+                        "{}: frame {} (frames.csv line {}): {error:#}",
+                        clip.dir.display(),
+                        row.frame,
+                        row.line
+                    );
                     report(bar, &mut summary, row.line, Some(row.frame), message);
                     results::write_status_row(&mut csv, Some(row.frame), "bad_chip")
                         .context("formatting a results row")?;
@@ -257,7 +262,7 @@ pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<Cli
                 }
             },
             Err(error) => {
-                let message = format!("{}: {error}", clip.dir.join("frames.csv").display());
+                let message = format!("{}: {error}", clip.dir.display());
                 report(bar, &mut summary, error.line, error.frame, message);
                 results::write_status_row(&mut csv, error.frame, "bad_row")
                     .context("formatting a results row")?;
