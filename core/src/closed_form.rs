@@ -75,6 +75,23 @@ pub fn range_from_diameter(
     (range.is_finite() && range > 0.0).then_some(range)
 }
 
+/// The nose tip and the tail base centre along the silhouette's axis, px, from its measured
+/// ends, at an aspect with sine `sin_a` and cosine `cos_a` and a scale of `px_per_m` across the
+/// line of sight.
+pub fn corrected_ends(
+    sil: &Silhouette,
+    model: &ProjectileModel,
+    sin_a: f32,
+    cos_a: f32,
+    px_per_m: f32,
+) -> (f32, f32) {
+    let nose_offset_m = model.nose_ramp_zero_offset_m(NOSE_RAMP.0, NOSE_RAMP.1);
+    (
+        sil.nose_t + nose_offset_m * sin_a * px_per_m,
+        sil.tail_t + DISC_HALF_WIDTH_REACH * model.radius_m() * cos_a * px_per_m,
+    )
+}
+
 /// Solves the pose at slant range `range_m` from the silhouette of a chip whose top-left pixel is
 /// full-frame `origin`.
 pub fn solve(
@@ -84,29 +101,42 @@ pub fn solve(
     model: &ProjectileModel,
     range_m: f32,
 ) -> ClosedForm {
-    let length = model.length_m;
-    let nose_offset_m = model.nose_ramp_zero_offset_m(NOSE_RAMP.0, NOSE_RAMP.1);
     let dir = Vector2::new(sil.axis.dir.0, sil.axis.dir.1);
     // Pixels per metre across the line of sight, along the image axis.
     let px_per_m = 1.0 / (range_m * camera.normalized_length(1.0, dir)).max(f32::MIN_POSITIVE);
-    let (mut sin_a, mut cos_a) = (1.0f32, 0.0f32);
-    let mut delta = Vector2::zeros();
-    let mut frame = line_of_sight_frame(Vector2::zeros());
-    for _ in 0..END_CORRECTION_ITERATIONS {
-        let nose_t = sil.nose_t + nose_offset_m * sin_a * px_per_m;
-        let tail_t = sil.tail_t + DISC_HALF_WIDTH_REACH * model.radius_m() * cos_a * px_per_m;
+    let corrected = |sin_a: f32, cos_a: f32| {
+        let (nose_t, tail_t) = corrected_ends(sil, model, sin_a, cos_a, px_per_m);
         let (nose, tail) = ends(sil, origin, nose_t, tail_t);
-        let mid = camera.normalize(0.5 * (nose.x + tail.x), 0.5 * (nose.y + tail.y));
-        frame = line_of_sight_frame(mid);
-        let angle = |p: Vector2<f32>| {
-            let n = camera.normalize(p.x, p.y);
-            let r = frame * Vector3::new(n.x, n.y, 1.0);
-            Vector2::new(r.x / r.z, r.y / r.z)
-        };
-        delta = (angle(nose) - angle(tail)) * range_m;
-        sin_a = (delta.norm() / length).min(1.0);
-        cos_a = libm::sqrtf((1.0 - sin_a * sin_a).max(0.0));
+        from_ends(nose, tail, camera, model.length_m, range_m)
+    };
+    // Start broadside; each pass corrects the ends for the aspect of the last.
+    let mut solution = corrected(1.0, 0.0);
+    for _ in 1..END_CORRECTION_ITERATIONS {
+        let aspect = solution.aspect_deg / DEG;
+        solution = corrected(libm::sinf(aspect), libm::cosf(aspect));
     }
+    solution
+}
+
+/// The pose whose nose tip and tail base centre project to full-frame `nose` and `tail` px, for a
+/// body `length` m long at slant range `range_m`.
+pub fn from_ends(
+    nose: Vector2<f32>,
+    tail: Vector2<f32>,
+    camera: &Camera,
+    length: f32,
+    range_m: f32,
+) -> ClosedForm {
+    let mid = camera.normalize(0.5 * (nose.x + tail.x), 0.5 * (nose.y + tail.y));
+    let frame = line_of_sight_frame(mid);
+    let angle = |p: Vector2<f32>| {
+        let n = camera.normalize(p.x, p.y);
+        let r = frame * Vector3::new(n.x, n.y, 1.0);
+        Vector2::new(r.x / r.z, r.y / r.z)
+    };
+    let delta = (angle(nose) - angle(tail)) * range_m;
+    let sin_a = (delta.norm() / length).min(1.0);
+    let cos_a = libm::sqrtf((1.0 - sin_a * sin_a).max(0.0));
     let transverse = delta / (length.max(delta.norm()));
     let candidate = |sign: f32| {
         let n_los = Vector3::new(transverse.x, transverse.y, sign * cos_a);

@@ -25,6 +25,7 @@ pub mod closed_form;
 pub mod config;
 pub mod extremes;
 pub mod mask;
+pub mod lut;
 pub mod model;
 pub mod pipeline;
 pub mod pose;

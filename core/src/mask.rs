@@ -4,8 +4,9 @@ use crate::capacity::MASK_WORDS;
 use embedded_graphics_core::{
     Pixel,
     draw_target::DrawTarget,
-    geometry::{OriginDimensions, Size},
+    geometry::{Dimensions, OriginDimensions, Size},
     pixelcolor::BinaryColor,
+    primitives::Rectangle,
 };
 
 /// A `width` x `height` binary mask in `WORDS` 32-bit words, rows padded to whole words.
@@ -137,6 +138,23 @@ impl<const WORDS: usize> DrawTarget for BitMask<WORDS> {
         for Pixel(p, color) in pixels {
             if p.x >= 0 && p.y >= 0 {
                 self.set(p.x as usize, p.y as usize, color.is_on());
+            }
+        }
+        Ok(())
+    }
+
+    /// Fills the part of `area` inside the mask (embedded-graphics fills primitives row by row
+    /// through this, so an oversized primitive costs only its rows).
+    fn fill_solid(&mut self, area: &Rectangle, color: Self::Color) -> Result<(), Self::Error> {
+        let clipped = area.intersection(&self.bounding_box());
+        let Some(bottom_right) = clipped.bottom_right() else {
+            return Ok(());
+        };
+        let (x0, y0) = (clipped.top_left.x as usize, clipped.top_left.y as usize);
+        let (x1, y1) = (bottom_right.x as usize, bottom_right.y as usize);
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                self.set(x, y, color.is_on());
             }
         }
         Ok(())

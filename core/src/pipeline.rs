@@ -8,6 +8,9 @@ use crate::chip::ChipView;
 use crate::closed_form::{self, ClosedForm};
 use crate::config::{Config, RangeUse};
 use crate::extremes::{self, Silhouette};
+use crate::lut::matcher::Match;
+use crate::lut::table::Table;
+use crate::lut::{self, Refined, render};
 use crate::mask::ChipMask;
 use crate::model::ProjectileModel;
 use crate::pose::Pose;
@@ -78,6 +81,9 @@ pub struct FrameResult {
     pub image_range_m: f32,
     /// The silhouette's measurements.
     pub silhouette: Option<Silhouette>,
+    /// The table match, where a table is loaded and it matched (the pose is then the refined
+    /// one; otherwise it is the closed form's).
+    pub matched: Option<Match>,
 }
 
 impl FrameResult {
@@ -100,6 +106,7 @@ impl FrameResult {
             roll_deg: None,
             image_range_m: 0.0,
             silhouette: None,
+            matched: None,
         }
     }
 }
@@ -117,6 +124,8 @@ pub struct Pipeline<
     mask: ChipMask,
     prior: ChipMask,
     temporal: Temporal,
+    table: Option<Table<'static>>,
+    refined: Option<Refined>,
 }
 
 impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABELS> {
@@ -130,7 +139,16 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABE
             mask: ChipMask::new(),
             prior: ChipMask::new(),
             temporal: Temporal::new(),
+            table: None,
+            refined: None,
         }
+    }
+
+    /// The pipeline refining its poses against `table` (validated by
+    /// [`Table::parse_for`] for this pipeline's model), and drawing the shape prior.
+    pub const fn with_table(mut self, table: Table<'static>) -> Self {
+        self.table = Some(table);
+        self
     }
 
     /// The configuration.
@@ -149,16 +167,23 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABE
         &self.prior
     }
 
+    /// The last frame's table match, with its measurements (None where it did not run or match).
+    pub fn refined(&self) -> Option<&Refined> {
+        self.refined.as_ref()
+    }
+
     /// Forgets the temporal state (a new clip).
     pub fn reset(&mut self) {
         self.temporal.reset();
         self.mask.clear();
         self.prior.clear();
+        self.refined = None;
     }
 
     /// Processes one frame.
     pub fn process(&mut self, input: &FrameInput) -> FrameResult {
         self.prior.clear();
+        self.refined = None;
         let range = match (input.range_m, self.config.range_use) {
             (Some(r), RangeUse::Auto) => {
                 if !(r.is_finite() && r > 0.0) {
@@ -211,6 +236,32 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABE
             };
         }
         let image_range = closed_form::range_from_diameter(&silhouette, &self.camera, &self.model);
+        let refined = match (self.table, range.or(image_range)) {
+            (Some(table), Some(start_range)) => {
+                let closed = closed_form::solve(
+                    &silhouette,
+                    (chip.x0(), chip.y0()),
+                    &self.camera,
+                    &self.model,
+                    start_range,
+                );
+                let frame = lut::Frame {
+                    chip,
+                    background: self.segmenter.background(),
+                    silhouette: &silhouette,
+                    class: target.class,
+                    origin: (chip.x0(), chip.y0()),
+                };
+                lut::refine(&frame, &table, &self.model, &self.camera, &closed, range).ok()
+            }
+            _ => None,
+        };
+        // The range measured from the image: the matched scale's, else the diameter's.
+        let image_range = refined
+            .as_ref()
+            .filter(|_| range.is_none())
+            .map(|r| r.range_m)
+            .or(image_range);
         let t = self.temporal.frame_time(input.time_s, &self.config);
         let (range_m, measured) = match (range, image_range) {
             (Some(r), _) => (r, r),
@@ -219,15 +270,40 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABE
         };
         self.temporal.push_range(t, measured, &self.config);
         self.temporal.set_nose_dir(silhouette.axis.dir);
-        let solution = closed_form::solve(
-            &silhouette,
-            (chip.x0(), chip.y0()),
-            &self.camera,
-            &self.model,
-            range_m,
-        );
+        let solution = match &refined {
+            Some(r) => {
+                self.draw_prior(chip, r);
+                r.at_range(&self.camera, &self.model, range_m)
+            }
+            None => closed_form::solve(
+                &silhouette,
+                (chip.x0(), chip.y0()),
+                &self.camera,
+                &self.model,
+                range_m,
+            ),
+        };
         let choice = self.temporal.choose_yaw(&self.config);
-        self.result(&solution, &silhouette, choice, range.is_some(), image_range)
+        self.refined = refined;
+        FrameResult {
+            matched: refined.map(|r| r.matched),
+            ..self.result(&solution, &silhouette, choice, range.is_some(), image_range)
+        }
+    }
+
+    /// Draws the matched entry's silhouette into the prior mask.
+    fn draw_prior(&mut self, chip: &ChipView, refined: &Refined) {
+        let Some(table) = &self.table else { return };
+        let tilt_step = 90.0 / (table.tilts() - 1) as f32;
+        let roll_step = 90.0 / table.rolls() as f32;
+        let entry = table.entry(
+            libm::roundf(refined.view.tilt_deg / tilt_step) as usize,
+            libm::roundf(refined.view.roll_deg / roll_step) as usize,
+        );
+        if self.prior.reset(chip.width(), chip.height()).is_ok() {
+            // The mask is an infallible draw target.
+            let _ = render::draw_entry(&mut self.prior, &entry, &refined.placement);
+        }
     }
 
     fn result(
@@ -262,6 +338,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABE
             roll_deg: None,
             image_range_m: image_range.unwrap_or(0.0),
             silhouette: Some(*silhouette),
+            matched: None,
         }
     }
 }

@@ -5,6 +5,8 @@ use nalgebra::{Matrix3, Vector3};
 
 /// Degrees per radian.
 pub const DEG: f32 = 180.0 / core::f32::consts::PI;
+/// Radians per degree.
+pub const RAD: f32 = core::f32::consts::PI / 180.0;
 
 /// A pose estimate.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

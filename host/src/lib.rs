@@ -10,6 +10,7 @@
 pub mod clip;
 pub mod eval;
 pub mod exit;
+pub mod lut;
 pub mod run;
 pub mod sim;
 pub mod stages;

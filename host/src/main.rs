@@ -19,6 +19,8 @@ enum Command {
     Run(imade_host::run::RunArgs),
     /// Score a results file against the clip's ground truth, beside the paper's figures.
     Eval(imade_host::eval::EvalArgs),
+    /// Build silhouette tables for the table match.
+    Lut(imade_host::lut::LutArgs),
     /// Render a deterministic simulated clip (imade-clip/1) with ground truth.
     Simulate(imade_host::sim::SimulateArgs),
 }
@@ -28,7 +30,8 @@ fn main() -> std::process::ExitCode {
     let outcome = match cli.command {
         Command::Run(args) => imade_host::run::run(&args),
         Command::Eval(args) => imade_host::eval::run(&args),
-        Command::Simulate(args) => imade_host::sim::run(&args),
+ imade_host::sim::run(&args),=>        Command::Simulate(args) => imade_host::sim::run(&args),
+        Command::Lut(args) => imade_host::lut::run(&args),=> imade_host::sim::run(&args),
     };
     if let Err(error) = &outcome {
         eprintln!("imade: error: {error:#}");

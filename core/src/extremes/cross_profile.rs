@@ -46,6 +46,83 @@ pub struct CrossSection {
 
 type Params = SVector<f32, 6>;
 
+/// A cross-section profile binned across the axis: `sum[i] / count[i]` is the mean contrast (of
+/// the body's polarity, background removed) of the pixels at `s = -half_width + (i + 0.5) *
+/// bin_width` px across the axis.
+pub struct Binned {
+    sum: [f32; CROSS_BINS],
+    count: [u16; CROSS_BINS],
+    /// Half the profile's extent across the axis, px.
+    pub half_width: f32,
+    /// Bin width, px.
+    pub bin_width: f32,
+    /// Pixels binned.
+    pub pixels: u32,
+}
+
+impl Binned {
+    /// The profile's points: bin centre (px across), mean contrast, weight (pixel count).
+    pub fn point(&self, i: usize) -> Option<(f32, f32, f32)> {
+        let c = *self.count.get(i)?;
+        if c == 0 {
+            return None;
+        }
+        let s = -self.half_width + (i as f32 + 0.5) * self.bin_width;
+        Some((s, *self.sum.get(i)? / f32::from(c), f32::from(c)))
+    }
+
+    /// All non-empty points.
+    pub fn points(&self) -> impl Iterator<Item = (f32, f32, f32)> + '_ {
+        (0..CROSS_BINS).filter_map(|i| self.point(i))
+    }
+}
+
+/// Bins the pixels of `stretch` by their distance across `shape`'s axis, within `half_width` px
+/// of it, for a body of contrast sign `class`; `bin_width` px (at least `2 half_width /
+/// CROSS_BINS`).
+pub fn bin(
+    chip: &ChipView,
+    background: &Background,
+    shape: &Shape,
+    class: i8,
+    stretch: Stretch,
+    half_width: f32,
+    bin_width: f32,
+) -> Binned {
+    let half_width = half_width.max(3.0);
+    let bin_width = bin_width.max(2.0 * half_width / CROSS_BINS as f32);
+    let mut binned = Binned {
+        sum: [0.0; CROSS_BINS],
+        count: [0; CROSS_BINS],
+        half_width,
+        bin_width,
+        pixels: 0,
+    };
+    let sign = f32::from(class);
+    // The pixels around the stretch: its bounding box in chip coordinates.
+    let reach = libm::fabsf(stretch.t0).max(libm::fabsf(stretch.t1)) + half_width + 1.0;
+    let (cx, cy) = shape.centre;
+    let x_lo = (cx - reach).max(0.0) as usize;
+    let x_hi = ((cx + reach).max(0.0) as usize + 1).min(chip.width());
+    let y_lo = (cy - reach).max(0.0) as usize;
+    let y_hi = ((cy + reach).max(0.0) as usize + 1).min(chip.height());
+    for y in y_lo..y_hi {
+        chip.for_each_in_span(y, x_lo, x_hi, |x, v| {
+            let (along, across) = shape.local(x as f32, y as f32);
+            if along < stretch.t0 || along >= stretch.t1 || libm::fabsf(across) >= half_width {
+                return;
+            }
+            let i = ((across + half_width) / bin_width) as usize;
+            if let (Some(s), Some(c)) = (binned.sum.get_mut(i), binned.count.get_mut(i)) {
+                *s += sign * (f32::from(v) - background.at(x as f32, y as f32));
+                *c = c.saturating_add(1);
+                binned.pixels += 1;
+            }
+        });
+    }
+    binned
+}
+
 /// Fits the cross-section of `stretch`, where the shape's axis is `shape` and the body's pixels
 /// have contrast sign `class`. `half_width` bounds the profile across the axis, px.
 pub fn fit(
@@ -56,45 +133,19 @@ pub fn fit(
     stretch: Stretch,
     half_width: f32,
 ) -> Option<CrossSection> {
-    let half_width = half_width.max(3.0);
-    let bin_width = (2.0 * half_width / CROSS_BINS as f32).max(0.125);
-    let mut sum = [0.0f32; CROSS_BINS];
-    let mut count = [0u16; CROSS_BINS];
-    let sign = f32::from(class);
-    // The pixels around the stretch: its bounding box in chip coordinates.
-    let reach = libm::fabsf(stretch.t0).max(libm::fabsf(stretch.t1)) + half_width + 1.0;
-    let (cx, cy) = shape.centre;
-    let x_lo = (cx - reach).max(0.0) as usize;
-    let x_hi = ((cx + reach).max(0.0) as usize + 1).min(chip.width());
-    let y_lo = (cy - reach).max(0.0) as usize;
-    let y_hi = ((cy + reach).max(0.0) as usize + 1).min(chip.height());
-    let mut pixels = 0u32;
-    for y in y_lo..y_hi {
-        chip.for_each_in_span(y, x_lo, x_hi, |x, v| {
-            let (along, across) = shape.local(x as f32, y as f32);
-            if along < stretch.t0 || along >= stretch.t1 || libm::fabsf(across) >= half_width {
-                return;
-            }
-            let bin = ((across + half_width) / bin_width) as usize;
-            if let (Some(s), Some(c)) = (sum.get_mut(bin), count.get_mut(bin)) {
-                *s += sign * (f32::from(v) - background.at(x as f32, y as f32));
-                *c = c.saturating_add(1);
-                pixels += 1;
-            }
-        });
-    }
+    fit_binned(&bin(
+        chip, background, shape, class, stretch, half_width, 0.125,
+    ))
+}
+
+/// Fits the blurred box to a binned cross-section.
+pub fn fit_binned(binned: &Binned) -> Option<CrossSection> {
+    let half_width = binned.half_width;
+    let pixels = binned.pixels;
     if pixels < 8 {
         return None;
     }
-    // The profile's points: bin centre, mean value, weight (pixel count).
-    let point = |i: usize| -> Option<(f32, f32, f32)> {
-        let c = *count.get(i)?;
-        if c == 0 {
-            return None;
-        }
-        let s = -half_width + (i as f32 + 0.5) * bin_width;
-        Some((s, *sum.get(i)? / f32::from(c), f32::from(c)))
-    };
+    let point = |i: usize| binned.point(i);
     let mut p = initial_guess(&point, half_width)?;
     let mut lambda = 1e-2f32;
     let mut cost = cost_of(&point, &p);

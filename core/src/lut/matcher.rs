@@ -1,0 +1,277 @@
+//! Profile matching: the measured width profile along the axis against the table's entries.
+//!
+//! The measured profile is the body's contrast summed across the axis per 1-px bin along it,
+//! divided by the section's mean contrast: the silhouette's width in px, blurred only along the
+//! axis (blur moves no contrast across it). An entry predicts it as `k (v_hi - v_lo)((t - t0) /
+//! k)`, `k` the scale in px per body diameter and `t0` the body origin along the axis, blurred
+//! along by the PSF. For each candidate entry `k` and `t0` are fitted by Gauss-Newton (`t0` only
+//! when the range fixes `k`), and the entries are searched coarse to fine: tilts around the
+//! closed form's, then rolls, then the neighbouring tilts for a parabolic refinement.
+
+use super::table::{Entry, Table};
+use crate::extremes::axial_profile::WidthProfile;
+
+/// Gauss-Hermite nodes (in sigma) and weights of the along-axis blur.
+const BLUR_NODES: [(f32, f32); 5] = [
+    (0.0, 0.533_333_3),
+    (1.355_626_2, 0.222_075_9),
+    (-1.355_626_2, 0.222_075_9),
+    (2.856_97, 0.011_257_4),
+    (-2.856_97, 0.011_257_4),
+];
+/// Gauss-Newton iterations per entry.
+const ITERATIONS: usize = 4;
+/// Tilts searched on either side of the closed form's, grid steps.
+const TILT_REACH: usize = 6;
+/// Residuals beyond this many px of width count linearly (Huber), so a plume or a cloud edge on
+/// a few bins cannot drag the fit.
+const HUBER_PX: f32 = 1.0;
+
+/// What the measured profile is matched with.
+pub struct Measured<'p> {
+    /// The width profile, px, along the axis from tail to nose.
+    pub profile: &'p WidthProfile,
+    /// Bins used: `first..last`.
+    pub bins: (usize, usize),
+    /// Blur along the axis, px (PSF and the profile's binning).
+    pub sigma_px: f32,
+    /// The measured nose tip and tail base along the axis, px (the closed form's corrected
+    /// ends): the extreme-point term of the loss, as in the source paper's.
+    pub ends_t: (f32, f32),
+    /// Weight of each end's squared distance, in width bins.
+    pub end_weight: f32,
+    /// Half the body's length over its diameter.
+    pub half_length_d: f32,
+}
+
+/// The scale and position of an entry on the profile.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Fit {
+    /// Scale, px per body diameter.
+    pub px_per_d: f32,
+    /// Body origin along the axis, px.
+    pub origin_t: f32,
+    /// Robust cost: sum of Huber-weighted squared width residuals, px².
+    pub cost: f32,
+}
+
+/// The best entry and its refinement.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Match {
+    /// Tilt out of the image plane, deg, refined between grid points.
+    pub tilt_deg: f32,
+    /// Roll of the best entry, deg, folded to `[0, 45]`: the width profile does not tell `φ`
+    /// from `-φ`.
+    pub roll_deg: f32,
+    /// How much better the best roll fits than the worst, as a fraction of the worst's cost
+    /// (0: the fins are not resolved).
+    pub roll_confidence: f32,
+    /// Scale, px per body diameter.
+    pub px_per_d: f32,
+    /// Body origin along the axis, px.
+    pub origin_t: f32,
+    /// RMS width residual per bin, px.
+    pub rms_px: f32,
+}
+
+impl Measured<'_> {
+    fn predicted(&self, entry: &Entry, px_per_d: f32, origin_t: f32, t: f32) -> f32 {
+        let mut sum = 0.0;
+        for (node, weight) in BLUR_NODES {
+            let u = (t + node * self.sigma_px - origin_t) / px_per_d;
+            let (lo, hi) = entry.edges_at(u);
+            sum += weight * (hi - lo);
+        }
+        sum * px_per_d
+    }
+
+    /// The extreme-point residuals (measured minus the entry's nose and tail) and their
+    /// derivatives in (px_per_d, origin_t), for an entry of tilt cosine `cos_tilt`.
+    fn end_residuals(&self, cos_tilt: f32, k: f32, t0: f32) -> [(f32, [f32; 2]); 2] {
+        let h = self.half_length_d * cos_tilt;
+        [
+            (self.ends_t.0 - (t0 + k * h), [h, 1.0]),
+            (self.ends_t.1 - (t0 - k * h), [-h, 1.0]),
+        ]
+    }
+
+    /// Cost, and its gradient and Gauss-Newton matrix in (px_per_d, origin_t).
+    fn evaluate(
+        &self,
+        entry: &Entry,
+        cos_tilt: f32,
+        k: f32,
+        t0: f32,
+    ) -> (f32, [f32; 2], [[f32; 2]; 2]) {
+        let (dk, dt) = (1e-3 * k, 0.05);
+        let (mut cost, mut g, mut h) = (0.0f32, [0.0f32; 2], [[0.0f32; 2]; 2]);
+        for (r, j) in self.end_residuals(cos_tilt, k, t0) {
+            cost += self.end_weight * r * r;
+            for a in 0..2 {
+                g[a] += self.end_weight * j[a] * r;
+                for b in 0..2 {
+                    h[a][b] += self.end_weight * j[a] * j[b];
+                }
+            }
+        }
+        for i in self.bins.0..self.bins.1 {
+            let t = self.profile.t_of(i);
+            let measured = self.profile.at(i);
+            let p = self.predicted(entry, k, t0, t);
+            let r = measured - p;
+            let weight = if libm::fabsf(r) <= HUBER_PX {
+                1.0
+            } else {
+                HUBER_PX / libm::fabsf(r)
+            };
+            cost += weight * r * r;
+            let jk = (self.predicted(entry, k + dk, t0, t) - p) / dk;
+            let jt = (self.predicted(entry, k, t0 + dt, t) - p) / dt;
+            let j = [jk, jt];
+            for a in 0..2 {
+                g[a] += weight * j[a] * r;
+                for b in 0..2 {
+                    h[a][b] += weight * j[a] * j[b];
+                }
+            }
+        }
+        (cost, g, h)
+    }
+
+    fn cost(&self, entry: &Entry, cos_tilt: f32, k: f32, t0: f32) -> f32 {
+        let ends: f32 = self
+            .end_residuals(cos_tilt, k, t0)
+            .iter()
+            .map(|(r, _)| self.end_weight * r * r)
+            .sum();
+        ends + (self.bins.0..self.bins.1)
+            .map(|i| {
+                let r = self.profile.at(i) - self.predicted(entry, k, t0, self.profile.t_of(i));
+                let a = libm::fabsf(r);
+                if a <= HUBER_PX { r * r } else { HUBER_PX * a }
+            })
+            .sum::<f32>()
+    }
+
+    /// Fits scale (unless `fixed_scale`) and origin of `entry`, from `start`.
+    pub fn fit(&self, entry: &Entry, cos_tilt: f32, start: Fit, fixed_scale: bool) -> Fit {
+        let mut best = Fit {
+            cost: self.cost(entry, cos_tilt, start.px_per_d, start.origin_t),
+            ..start
+        };
+        for _ in 0..ITERATIONS {
+            let (_, g, h) = self.evaluate(entry, cos_tilt, best.px_per_d, best.origin_t);
+            let step = if fixed_scale {
+                (h[1][1] > 0.0).then(|| [0.0, g[1] / h[1][1]])
+            } else {
+                let det = h[0][0] * h[1][1] - h[0][1] * h[1][0];
+                (libm::fabsf(det) > 1e-12).then(|| {
+                    [
+                        (h[1][1] * g[0] - h[0][1] * g[1]) / det,
+                        (h[0][0] * g[1] - h[1][0] * g[0]) / det,
+                    ]
+                })
+            };
+            let Some([sk, st]) = step else { break };
+            // Keep steps modest: the profile is piecewise linear.
+            let sk = sk.clamp(-0.1 * best.px_per_d, 0.1 * best.px_per_d);
+            let st = st.clamp(-3.0, 3.0);
+            let trial = Fit {
+                px_per_d: best.px_per_d + sk,
+                origin_t: best.origin_t + st,
+                cost: 0.0,
+            };
+            let cost = self.cost(entry, cos_tilt, trial.px_per_d, trial.origin_t);
+            if !(cost.is_finite() && cost < best.cost && trial.px_per_d > 0.0) {
+                break;
+            }
+            best = Fit { cost, ..trial };
+        }
+        best
+    }
+}
+
+/// Rolls of the table folded to `[0, 45]` deg: the indices searched.
+fn folded_rolls<'t>(table: &'t Table<'t>) -> impl Iterator<Item = usize> + 't {
+    (0..table.rolls()).filter(|&j| table.roll_deg(j) <= 45.0 + 1e-3)
+}
+
+/// Searches `table` for the entry that best explains `measured`, starting from the closed form's
+/// tilt `tilt_deg` and `start` (scale and origin); `fixed_scale` when the range is known.
+pub fn search(
+    table: &Table,
+    measured: &Measured,
+    tilt_deg: f32,
+    start: Fit,
+    fixed_scale: bool,
+) -> Option<Match> {
+    let step = 90.0 / (table.tilts() - 1) as f32;
+    let centre = libm::roundf(tilt_deg.clamp(0.0, 90.0) / step) as usize;
+    let lo = centre.saturating_sub(TILT_REACH);
+    let hi = (centre + TILT_REACH).min(table.tilts() - 1);
+    let mid_roll = folded_rolls(table).last().unwrap_or(0) / 2;
+    let fit_at = |i: usize, j: usize, from: Fit| {
+        let cos_tilt = libm::cosf(table.tilt_deg(i) * crate::pose::RAD);
+        measured.fit(&table.entry(i, j), cos_tilt, from, fixed_scale)
+    };
+    // 1. Tilts around the closed form's, at a middle roll.
+    let mut best: Option<(usize, usize, Fit)> = None;
+    for i in lo..=hi {
+        let fit = fit_at(i, mid_roll, start);
+        if best.is_none_or(|(_, _, b)| fit.cost < b.cost) {
+            best = Some((i, mid_roll, fit));
+        }
+    }
+    let (tilt, _, fit) = best?;
+    // 2. Rolls at that tilt.
+    let mut worst_cost = 0.0f32;
+    let mut best_roll = (mid_roll, fit);
+    for j in folded_rolls(table) {
+        let f = fit_at(tilt, j, fit);
+        worst_cost = worst_cost.max(f.cost);
+        if f.cost < best_roll.1.cost {
+            best_roll = (j, f);
+        }
+    }
+    let (roll, fit) = best_roll;
+    // 3. The neighbouring tilts at that roll, and a parabola through the three costs.
+    let at = |i: usize| fit_at(i, roll, fit);
+    let (below, above) = (
+        (tilt > 0).then(|| at(tilt - 1)),
+        (tilt + 1 < table.tilts()).then(|| at(tilt + 1)),
+    );
+    let mut offset = 0.0f32;
+    let mut refined = fit;
+    match (below, above) {
+        (Some(b), Some(a)) => {
+            let curvature = a.cost + b.cost - 2.0 * fit.cost;
+            if curvature > 0.0 {
+                offset = (0.5 * (b.cost - a.cost) / curvature).clamp(-1.0, 1.0);
+            }
+            refined.px_per_d = interpolate(b.px_per_d, fit.px_per_d, a.px_per_d, offset);
+            refined.origin_t = interpolate(b.origin_t, fit.origin_t, a.origin_t, offset);
+        }
+        (Some(b), None) if b.cost < fit.cost => offset = -0.5,
+        (None, Some(a)) if a.cost < fit.cost => offset = 0.5,
+        _ => {}
+    }
+    let bins = (measured.bins.1 - measured.bins.0).max(1) as f32;
+    Some(Match {
+        tilt_deg: ((tilt as f32 + offset) * step).clamp(0.0, 90.0),
+        roll_deg: table.roll_deg(roll),
+        roll_confidence: if worst_cost > 0.0 {
+            1.0 - fit.cost / worst_cost
+        } else {
+            0.0
+        },
+        px_per_d: refined.px_per_d,
+        origin_t: refined.origin_t,
+        rms_px: libm::sqrtf(fit.cost / bins),
+    })
+}
+
+/// The value at `offset` in [-1, 1] of the parabola through (-1, `below`), (0, `at`), (1, `above`).
+fn interpolate(below: f32, at: f32, above: f32, offset: f32) -> f32 {
+    at + 0.5 * offset * (above - below) + 0.5 * offset * offset * (above + below - 2.0 * at)
+}

@@ -1,0 +1,200 @@
+//! The model's silhouette as filled triangles, drawn with embedded-graphics: the shape prior on
+//! the chip, and (at a large scale) the source of the table's entries.
+//!
+//! The body of revolution is a chain of cross-section circles along the axis (the ogive's
+//! stations, the shoulder, the base); under a narrow field of view each projects to an ellipse
+//! with its long axis across the projected axis, and consecutive ones are joined by the quad
+//! between their outermost points. Each fin is its flat trapezoid (its 4 mm thickness is left
+//! out). Coordinates follow the silhouette frame of [`super::table`].
+
+use super::table::Entry;
+use crate::model::ProjectileModel;
+use crate::pose::RAD;
+use embedded_graphics::Drawable;
+use embedded_graphics::pixelcolor::BinaryColor;
+use embedded_graphics::prelude::{DrawTarget, Point, Primitive};
+use embedded_graphics::primitives::{PrimitiveStyle, Triangle};
+
+/// Stations along the ogive, tip excluded.
+const NOSE_STATIONS: usize = 8;
+/// Vertices of a cross-section's ellipse.
+const ELLIPSE_VERTICES: usize = 16;
+/// The largest silhouette drawn, px along either axis (a guard against absurd placements).
+const MAX_EXTENT_PX: f32 = 16384.0;
+
+/// The body's attitude relative to the line of sight: tilt and roll of the silhouette frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct View {
+    /// Angle between the body axis and the image plane, deg (0: broadside, 90: end-on).
+    pub tilt_deg: f32,
+    /// Fin angle from `+v` towards `n × v`, deg.
+    pub roll_deg: f32,
+}
+
+/// Where the silhouette is drawn: the silhouette frame mapped to target pixels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Placement {
+    /// Target pixel of the body origin (pixel centres at integers).
+    pub origin: (f32, f32),
+    /// Unit image vector of the projected axis, tail to nose (`+u`); `+v` is it turned by +90°.
+    pub dir: (f32, f32),
+    /// Scale, px per unit of the silhouette frame (per metre for the model's triangles, per
+    /// body diameter for a table entry).
+    pub px_per_unit: f32,
+}
+
+impl Placement {
+    /// The target pixel nearest to silhouette-frame point `(u, v)`.
+    fn pixel(&self, (u, v): (f32, f32)) -> Point {
+        let x = self.origin.0 + self.px_per_unit * (u * self.dir.0 - v * self.dir.1);
+        let y = self.origin.1 + self.px_per_unit * (u * self.dir.1 + v * self.dir.0);
+        Point::new(libm::roundf(x) as i32, libm::roundf(y) as i32)
+    }
+
+    /// True when the placement is finite and a shape of `extent` units stays under 16384 px.
+    fn is_sane(&self, extent: f32) -> bool {
+        [
+            self.origin.0,
+            self.origin.1,
+            self.dir.0,
+            self.dir.1,
+            self.px_per_unit,
+        ]
+        .iter()
+        .all(|v| v.is_finite() && libm::fabsf(*v) < MAX_EXTENT_PX)
+            && self.px_per_unit * extent < MAX_EXTENT_PX
+    }
+}
+
+/// Fills one silhouette-frame triangle at `placement` (vertices rounded to pixel centres).
+pub fn fill_triangle<D: DrawTarget<Color = BinaryColor>>(
+    target: &mut D,
+    placement: &Placement,
+    [a, b, c]: [(f32, f32); 3],
+) -> Result<(), D::Error> {
+    Triangle::new(placement.pixel(a), placement.pixel(b), placement.pixel(c))
+        .into_styled(PrimitiveStyle::with_fill(BinaryColor::On))
+        .draw(target)
+}
+
+/// A point of the body, `x` m along the axis from the origin, `r` m from it at fin angle `psi`
+/// rad, in the silhouette frame (m).
+fn project(view_sin_cos: (f32, f32), x: f32, r: f32, psi: f32) -> (f32, f32) {
+    let (sin_b, cos_b) = view_sin_cos;
+    (x * cos_b - r * libm::sinf(psi) * sin_b, r * libm::cosf(psi))
+}
+
+/// Calls `f` with each triangle of the silhouette of `model` seen at `view`, in the silhouette
+/// frame (m).
+pub fn for_each_triangle(model: &ProjectileModel, view: &View, mut f: impl FnMut([(f32, f32); 3])) {
+    let beta = view.tilt_deg * RAD;
+    let sc = (libm::sinf(beta), libm::cosf(beta));
+    let half = 0.5 * model.length_m;
+    // The body of revolution: stations from the tip (s = 0) to the base (s = L).
+    let station = |i: usize| -> (f32, f32) {
+        let s = if i <= NOSE_STATIONS {
+            model.nose_length_m * i as f32 / NOSE_STATIONS as f32
+        } else {
+            model.length_m
+        };
+        (half - s, model.radius_at(s.min(model.length_m)))
+    };
+    let mut previous: Option<(f32, f32)> = None;
+    for i in 0..=NOSE_STATIONS + 1 {
+        let (x, r) = station(i);
+        let centre = project(sc, x, 0.0, 0.0);
+        // The ellipse of this cross-section, as a triangle fan.
+        if r > 0.0 && sc.0 > 1e-4 {
+            let vertex = |k: usize| {
+                let psi = core::f32::consts::TAU * k as f32 / ELLIPSE_VERTICES as f32;
+                project(sc, x, r, psi)
+            };
+            for k in 0..ELLIPSE_VERTICES {
+                f([centre, vertex(k), vertex(k + 1)]);
+            }
+        }
+        if let Some((px, pr)) = previous {
+            let a = project(sc, px, pr, 0.0);
+            let b = project(sc, x, r, 0.0);
+            let c = project(sc, x, -r, 0.0);
+            let d = project(sc, px, -pr, 0.0);
+            f([a, b, c]);
+            f([a, c, d]);
+        }
+        previous = Some((x, r));
+    }
+    // The fins: trailing edges flush with the base.
+    let base = -half;
+    let (root, tip) = (model.fin_root_chord_m, model.fin_tip_chord_m);
+    let (r0, r1) = (model.radius_m(), model.fin_tip_radius_m);
+    for k in 0..model.fin_count {
+        let psi = view.roll_deg * RAD
+            + core::f32::consts::TAU * f32::from(k) / f32::from(model.fin_count);
+        let a = project(sc, base, r0, psi);
+        let b = project(sc, base + root, r0, psi);
+        let c = project(sc, base + tip, r1, psi);
+        let d = project(sc, base, r1, psi);
+        f([a, b, c]);
+        f([a, c, d]);
+    }
+}
+
+/// The silhouette's extent along the projected axis, m: (tail end, nose end).
+pub fn u_extent(model: &ProjectileModel, view: &View) -> (f32, f32) {
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    for_each_triangle(model, view, |t| {
+        for (u, _) in t {
+            lo = lo.min(u);
+            hi = hi.max(u);
+        }
+    });
+    (lo, hi)
+}
+
+/// Draws the silhouette of `model` at `view` into `target` at `placement` (in px per metre).
+/// Nothing is drawn for a placement that is not finite or would span more than 16384 px.
+pub fn draw<D: DrawTarget<Color = BinaryColor>>(
+    target: &mut D,
+    model: &ProjectileModel,
+    view: &View,
+    placement: &Placement,
+) -> Result<(), D::Error> {
+    if !placement.is_sane(model.length_m.max(2.0 * model.fin_tip_radius_m)) {
+        return Ok(());
+    }
+    let mut result = Ok(());
+    for_each_triangle(model, view, |t| {
+        if result.is_ok() {
+            result = fill_triangle(target, placement, t);
+        }
+    });
+    result
+}
+
+/// Draws a table entry's silhouette into `target` at `placement` (in px per body diameter): the
+/// quads between consecutive stations' edges. This is how the shape prior is drawn, whatever
+/// the model the table was built from.
+pub fn draw_entry<D: DrawTarget<Color = BinaryColor>>(
+    target: &mut D,
+    entry: &Entry,
+    placement: &Placement,
+) -> Result<(), D::Error> {
+    let (lo, hi) = entry.u_range();
+    if !placement.is_sane(hi - lo) {
+        return Ok(());
+    }
+    let last = entry.stations().saturating_sub(1).max(1) as f32;
+    let station = |s: usize| {
+        let u = lo + (hi - lo) * s as f32 / last;
+        let (v0, v1) = entry.edges(s);
+        ((u, v0), (u, v1))
+    };
+    for s in 1..entry.stations() {
+        let ((a0, a1), (b0, b1)) = (station(s - 1), station(s));
+        fill_triangle(target, placement, [a0, a1, b1])?;
+        fill_triangle(target, placement, [a0, b1, b0])?;
+    }
+    Ok(())
+}

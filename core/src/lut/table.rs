@@ -1,0 +1,264 @@
+//! The silhouette table, `imade-lut/1`: read zero-copy from a byte slice (flash on the firmware).
+//!
+//! Under a narrow field of view the silhouette's shape depends only on the body's tilt out of the
+//! image plane and on its roll; its scale and in-plane angle are measured from the chip. The
+//! table holds, for a grid of tilts and rolls, the silhouette's edges across the projected axis
+//! at evenly spaced stations along it, in units of the body diameter `D`.
+//!
+//! The silhouette frame: `u` along the projected axis (tail to nose), `v` across it, rotated
+//! +90° from `u` in the image (x right, y down), both in `D`, with the body origin (the middle of
+//! its length) at `(0, 0)`. Tilt `β` in `[0, 90]` deg is the angle between the axis and the image
+//! plane: the axis is `n = (cos β, 0, sin β)` in the frame (u, v, line of sight). Roll `φ` in `[0,
+//! 90)` deg puts the fins at `φ + k 90°` from `+v` towards `n × v`, so that a point at radius `r`
+//! and fin angle `ψ` on the axial station `x` is seen at `u = x cos β - r sin ψ sin β`, `v = r cos
+//! ψ`. Mirroring the body through the image plane (the two yaw candidates) leaves the silhouette
+//! unchanged, which is why tilts beyond 90° are not needed.
+//!
+//! Layout (little-endian; `docs/lut-format.md` has the full description):
+//!
+//! | offset | size | field |
+//! | --- | --- | --- |
+//! | 0 | 8 | magic `IMADELUT` |
+//! | 8 | 2 | format version, 1 |
+//! | 10 | 2 | header length, 64 |
+//! | 12 | 32 | model id, UTF-8, NUL-padded |
+//! | 44 | 4 | f32 body diameter `D`, m |
+//! | 48 | 4 | f32 overall length, m |
+//! | 52 | 2 | tilts `T`: tilt `i` is `90 i / (T - 1)` deg |
+//! | 54 | 2 | rolls `R`: roll `j` is `90 j / R` deg |
+//! | 56 | 2 | stations per entry `S` |
+//! | 58 | 2 | reserved, 0 |
+//! | 60 | 4 | f32 `v` quantum, `D` per unit |
+//! | 64 | `T R (4 + 2 S)` | entries, tilt-major: i16 `u_lo`, i16 `u_hi` (`D`/1024), then per station i8 `v_lo`, i8 `v_hi` |
+//! | end - 4 | 4 | CRC-32 (ISO-HDLC) of everything before it |
+//!
+//! Station `s` of an entry lies at `u = u_lo + (u_hi - u_lo) s / (S - 1)`.
+
+use crate::model::ProjectileModel;
+
+/// The magic bytes.
+pub const MAGIC: [u8; 8] = *b"IMADELUT";
+/// The format version this code reads and writes.
+pub const VERSION: u16 = 1;
+/// Header length, bytes.
+pub const HEADER_LEN: usize = 64;
+/// Bytes of the model id field.
+pub const MODEL_ID_LEN: usize = 32;
+/// Units of `u_lo` and `u_hi` per `D`.
+pub const U_UNITS_PER_D: f32 = 1024.0;
+/// The most stations an entry may have.
+pub const MAX_STATIONS: usize = 256;
+
+/// The CRC of the table's trailer.
+pub const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+/// Why a table was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TableError {
+    /// Shorter than its header, or not the length its grid implies.
+    Length,
+    /// Not an imade table.
+    Magic,
+    /// A format version this code does not read.
+    Version(u16),
+    /// The header's fields are out of range.
+    Grid,
+    /// The checksum does not match.
+    Checksum,
+    /// The table was built for another model.
+    Model,
+}
+
+/// A validated table borrowing its bytes.
+#[derive(Debug, Clone, Copy)]
+pub struct Table<'a> {
+    bytes: &'a [u8],
+    tilts: usize,
+    rolls: usize,
+    stations: usize,
+    v_quantum: f32,
+    diameter_m: f32,
+    length_m: f32,
+}
+
+fn u16_at(b: &[u8], at: usize) -> u16 {
+    match b.get(at..at + 2) {
+        Some(&[x, y]) => u16::from_le_bytes([x, y]),
+        _ => 0,
+    }
+}
+
+fn f32_at(b: &[u8], at: usize) -> f32 {
+    match b.get(at..at + 4) {
+        Some(&[a, c, d, e]) => f32::from_le_bytes([a, c, d, e]),
+        _ => f32::NAN,
+    }
+}
+
+/// Bytes of one entry with `stations` stations.
+pub const fn entry_len(stations: usize) -> usize {
+    4 + 2 * stations
+}
+
+impl<'a> Table<'a> {
+    /// Validates `bytes` as a table: magic, version, grid, length and checksum.
+    pub fn parse(bytes: &'a [u8]) -> Result<Table<'a>, TableError> {
+        if bytes.len() < HEADER_LEN + 4 {
+            return Err(TableError::Length);
+        }
+        if bytes.get(..8) != Some(&MAGIC[..]) {
+            return Err(TableError::Magic);
+        }
+        let version = u16_at(bytes, 8);
+        if version != VERSION {
+            return Err(TableError::Version(version));
+        }
+        let tilts = usize::from(u16_at(bytes, 52));
+        let rolls = usize::from(u16_at(bytes, 54));
+        let stations = usize::from(u16_at(bytes, 56));
+        let table = Table {
+            bytes,
+            tilts,
+            rolls,
+            stations,
+            v_quantum: f32_at(bytes, 60),
+            diameter_m: f32_at(bytes, 44),
+            length_m: f32_at(bytes, 48),
+        };
+        let grid_ok = usize::from(u16_at(bytes, 10)) == HEADER_LEN
+            && tilts >= 2
+            && rolls >= 1
+            && (2..=MAX_STATIONS).contains(&stations)
+            && table.v_quantum.is_finite()
+            && table.v_quantum > 0.0
+            && table.diameter_m.is_finite()
+            && table.diameter_m > 0.0
+            && table.length_m.is_finite()
+            && table.length_m > 0.0;
+        if !grid_ok {
+            return Err(TableError::Grid);
+        }
+        let expected = tilts
+            .checked_mul(rolls)
+            .and_then(|n| n.checked_mul(entry_len(stations)))
+            .and_then(|n| n.checked_add(HEADER_LEN + 4));
+        if expected != Some(bytes.len()) {
+            return Err(TableError::Length);
+        }
+        let body = bytes.len() - 4;
+        let stored = match bytes.get(body..) {
+            Some(&[a, b, c, d]) => u32::from_le_bytes([a, b, c, d]),
+            _ => return Err(TableError::Length),
+        };
+        if CRC.checksum(bytes.get(..body).unwrap_or(&[])) != stored {
+            return Err(TableError::Checksum);
+        }
+        Ok(table)
+    }
+
+    /// Validates the table and checks it was built for `model` (id and dimensions).
+    pub fn parse_for(bytes: &'a [u8], model: &ProjectileModel) -> Result<Table<'a>, TableError> {
+        let table = Table::parse(bytes)?;
+        let same = table.model_id() == model.id
+            && libm::fabsf(table.diameter_m - model.diameter_m) <= 1e-6
+            && libm::fabsf(table.length_m - model.length_m) <= 1e-6;
+        if same {
+            Ok(table)
+        } else {
+            Err(TableError::Model)
+        }
+    }
+
+    /// The model id the table was built for.
+    pub fn model_id(&self) -> &'a str {
+        let field = self.bytes.get(12..12 + MODEL_ID_LEN).unwrap_or(&[]);
+        let end = field.iter().position(|&b| b == 0).unwrap_or(field.len());
+        core::str::from_utf8(field.get(..end).unwrap_or(&[])).unwrap_or("")
+    }
+
+    /// Number of tilts.
+    pub fn tilts(&self) -> usize {
+        self.tilts
+    }
+
+    /// Number of rolls.
+    pub fn rolls(&self) -> usize {
+        self.rolls
+    }
+
+    /// Stations per entry.
+    pub fn stations(&self) -> usize {
+        self.stations
+    }
+
+    /// Tilt of grid index `i`, deg.
+    pub fn tilt_deg(&self, i: usize) -> f32 {
+        90.0 * i as f32 / (self.tilts - 1) as f32
+    }
+
+    /// Roll of grid index `j`, deg.
+    pub fn roll_deg(&self, j: usize) -> f32 {
+        90.0 * j as f32 / self.rolls as f32
+    }
+
+    /// The entry at tilt index `tilt` and roll index `roll` (clamped to the grid).
+    pub fn entry(&self, tilt: usize, roll: usize) -> Entry<'a> {
+        let index = tilt.min(self.tilts - 1) * self.rolls + roll.min(self.rolls - 1);
+        let len = entry_len(self.stations);
+        let at = HEADER_LEN + index * len;
+        Entry {
+            bytes: self.bytes.get(at..at + len).unwrap_or(&[]),
+            stations: self.stations,
+            v_quantum: self.v_quantum,
+        }
+    }
+}
+
+/// One entry: a silhouette's edges at its stations.
+#[derive(Debug, Clone, Copy)]
+pub struct Entry<'a> {
+    bytes: &'a [u8],
+    stations: usize,
+    v_quantum: f32,
+}
+
+impl Entry<'_> {
+    /// The silhouette's extent along the projected axis, `D`: (tail end, nose end).
+    pub fn u_range(&self) -> (f32, f32) {
+        let lo = u16_at(self.bytes, 0) as i16;
+        let hi = u16_at(self.bytes, 2) as i16;
+        (f32::from(lo) / U_UNITS_PER_D, f32::from(hi) / U_UNITS_PER_D)
+    }
+
+    /// Stations.
+    pub fn stations(&self) -> usize {
+        self.stations
+    }
+
+    /// The edges (`v_lo`, `v_hi`) at station `s`, `D`.
+    pub fn edges(&self, s: usize) -> (f32, f32) {
+        let at = 4 + 2 * s;
+        match self.bytes.get(at..at + 2) {
+            Some(&[lo, hi]) => (
+                f32::from(lo as i8) * self.v_quantum,
+                f32::from(hi as i8) * self.v_quantum,
+            ),
+            _ => (0.0, 0.0),
+        }
+    }
+
+    /// The edges at `u` `D` along the axis, interpolated between stations; `(0, 0)` outside.
+    pub fn edges_at(&self, u: f32) -> (f32, f32) {
+        let (lo, hi) = self.u_range();
+        if !(u >= lo && u <= hi) || hi <= lo {
+            return (0.0, 0.0);
+        }
+        let position = (u - lo) / (hi - lo) * (self.stations - 1) as f32;
+        let i = (position as usize).min(self.stations - 2);
+        let f = position - i as f32;
+        let (a0, a1) = self.edges(i);
+        let (b0, b1) = self.edges(i + 1);
+        (a0 + f * (b0 - a0), a1 + f * (b1 - a1))
+    }
+}
