@@ -3,6 +3,7 @@
 //! - [`clip`]: the `imade-clip/1` recorded-clip format, read and written, and imade-results/1 read.
 //! - [`eval`]: `imade eval`, results against ground truth beside the paper's figures.
 //! - [`exit`]: the binary's exit codes.
+//! - [`plot`]: `imade plot`, figures like the paper's.
 //! - [`run`]: `imade run`, the core's pipeline over clips; [`summary`] its JSON summary, [`stages`]
 //!   the segmentation stages whose masks it saves.
 //! - [`sim`]: the clip simulator (`imade simulate`), with its own renderer, independent of the core.
@@ -11,6 +12,7 @@ pub mod clip;
 pub mod eval;
 pub mod exit;
 pub mod lut;
+pub mod plot;
 pub mod run;
 pub mod sim;
 pub mod stages;

@@ -19,6 +19,8 @@ enum Command {
     Run(imade_host::run::RunArgs),
     /// Score a results file against the clip's ground truth, beside the paper's figures.
     Eval(imade_host::eval::EvalArgs),
+    /// Draw figures like the paper's from results files (PNG).
+    Plot(imade_host::plot::PlotArgs),
     /// Build silhouette tables for the table match.
     Lut(imade_host::lut::LutArgs),
     /// Render a deterministic simulated clip (imade-clip/1) with ground truth.
@@ -30,6 +32,7 @@ fn main() -> std::process::ExitCode {
     let outcome = match cli.command {
         Command::Run(args) => imade_host::run::run(&args),
         Command::Eval(args) => imade_host::eval::run(&args),
+        Command::Plot(args) => imade_host::plot::run(&args),
  imade_host::sim::run(&args),=>        Command::Simulate(args) => imade_host::sim::run(&args),
         Command::Lut(args) => imade_host::lut::run(&args),=> imade_host::sim::run(&args),
     };

@@ -21,17 +21,22 @@ pub struct MaskStage {
     pub paper: Option<PaperIou>,
 }
 
+/// Folder of the blind segmentation's masks.
+pub const MASKS_FOLDER: &str = "masks";
+/// Folder of the shape priors.
+pub const PRIORS_FOLDER: &str = "priors";
+
 /// Every stage, in pipeline order.
 pub const STAGES: &[MaskStage] = &[
     MaskStage {
         name: "blind segmentation",
-        folder: "masks",
+        folder: MASKS_FOLDER,
         mask: Pipeline::mask,
         paper: Some(paper::IOU_MASK_RCNN),
     },
     MaskStage {
         name: "shape prior",
-        folder: "priors",
+        folder: PRIORS_FOLDER,
         mask: Pipeline::prior,
         paper: Some(paper::IOU_SHAPE_PRIOR),
     },

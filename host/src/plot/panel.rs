@@ -1,0 +1,100 @@
+//! One line/scatter panel of frame-indexed values, the building block of the pose figures.
+
+use super::font::FAMILY;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mark {
+    /// A line through the points (the truth).
+    Line,
+    /// Filled dots (the estimate).
+    Dots,
+    /// Small crosses (a secondary estimate, such as the mirrored candidate).
+    Crosses,
+}
+
+/// One series of (frame, value) points.
+pub struct Series<'a> {
+    /// Legend text.
+    pub label: &'a str,
+    /// How it is drawn.
+    pub mark: Mark,
+    /// Its colour.
+    pub color: RGBColor,
+    /// The points.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// The paper's colours: truth blue, estimate orange.
+pub const TRUTH: RGBColor = RGBColor(31, 119, 180);
+/// See [`TRUTH`].
+pub const ESTIMATE: RGBColor = RGBColor(255, 127, 14);
+/// Secondary estimates.
+pub const SECONDARY: RGBColor = RGBColor(150, 150, 150);
+
+/// The span of the values with a 5 % margin (a unit span around a constant).
+pub fn span(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    if lo > hi {
+        return 0.0..1.0;
+    }
+    let pad = if hi > lo { 0.05 * (hi - lo) } else { 0.5 };
+    lo - pad..hi + pad
+}
+
+/// Draws a panel titled `title` with y axis `unit` over frame numbers.
+pub fn draw_panel(
+    area: &DrawingArea<BitMapBackend, Shift>,
+    title: &str,
+    unit: &str,
+    series: &[Series],
+) -> anyhow::Result<()> {
+    let all = || series.iter().flat_map(|s| s.points.iter());
+    let x = span(all().map(|p| p.0));
+    let y = span(all().map(|p| p.1));
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, (FAMILY, 22))
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x, y)?;
+    chart
+        .configure_mesh()
+        .x_desc("frame")
+        .y_desc(unit)
+        .label_style((FAMILY, 14))
+        .draw()?;
+    for s in series {
+        let color = s.color;
+        let drawn = match s.mark {
+            Mark::Line => chart.draw_series(LineSeries::new(
+                s.points.iter().copied(),
+                color.stroke_width(2),
+            ))?,
+            Mark::Dots => {
+                chart.draw_series(s.points.iter().map(|&p| Circle::new(p, 3, color.filled())))?
+            }
+            Mark::Crosses => chart.draw_series(
+                s.points
+                    .iter()
+                    .map(|&p| Cross::new(p, 3, color.stroke_width(1))),
+            )?,
+        };
+        drawn
+            .label(s.label)
+            .legend(move |(x, y)| Circle::new((x + 8, y), 4, color.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .label_font((FAMILY, 14))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
+}

@@ -1,0 +1,112 @@
+//! Estimated against true pose over the frames, like the paper's Fig. 15 (unknown range) and
+//! Fig. 16 (known range): Tx, Ty, Tz, pitch and yaw (with the mirrored candidate), and the slant
+//! range measured from the image.
+
+use super::panel::{ESTIMATE, Mark, SECONDARY, Series, TRUTH, draw_panel};
+use crate::clip::{Clip, FrameRow, GroundTruth, ResultRow};
+use plotters::prelude::*;
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Writes the figure for one results file to `path` (1500 x 900 px).
+pub fn plot(clip: &Clip, rows: &[ResultRow], title: &str, path: &Path) -> anyhow::Result<()> {
+    let truth: Vec<(&FrameRow, GroundTruth)> = clip
+        .frames
+        .iter()
+        .filter_map(|f| f.as_ref().ok())
+        .filter_map(|r| Some((r, r.truth?)))
+        .collect();
+    let ok: HashMap<u64, &ResultRow> = rows
+        .iter()
+        .filter(|r| r.is_ok())
+        .filter_map(|r| Some((r.frame?, r)))
+        .collect();
+    let true_of = |f: fn(&GroundTruth) -> f64| -> Vec<(f64, f64)> {
+        truth.iter().map(|(r, t)| (r.frame as f64, f(t))).collect()
+    };
+    let estimate_of = |f: fn(&ResultRow) -> Option<f64>| -> Vec<(f64, f64)> {
+        truth
+            .iter()
+            .filter_map(|(r, _)| Some((r.frame as f64, f(ok.get(&r.frame)?)?)))
+            .collect()
+    };
+    let pair = |truth: Vec<(f64, f64)>, estimate: Vec<(f64, f64)>| {
+        vec![
+            Series {
+                label: "truth",
+                mark: Mark::Line,
+                color: TRUTH,
+                points: truth,
+            },
+            Series {
+                label: "estimate",
+                mark: Mark::Dots,
+                color: ESTIMATE,
+                points: estimate,
+            },
+        ]
+    };
+    let with_alt = |mut series: Vec<Series<'static>>, alt: Vec<(f64, f64)>| {
+        series.push(Series {
+            label: "mirrored candidate",
+            mark: Mark::Crosses,
+            color: SECONDARY,
+            points: alt,
+        });
+        series
+    };
+    let slant = |t: &GroundTruth| (t.tx_m * t.tx_m + t.ty_m * t.ty_m + t.tz_m * t.tz_m).sqrt();
+    let mut range = pair(true_of(slant), estimate_of(|r| r.image_range_m));
+    range[1].label = "from the image";
+    range.push(Series {
+        label: "range sensor",
+        mark: Mark::Crosses,
+        color: SECONDARY,
+        points: truth
+            .iter()
+            .filter_map(|(r, _)| Some((r.frame as f64, r.range_m?)))
+            .collect(),
+    });
+    let panels: [(&str, &str, Vec<Series>); 6] = [
+        (
+            "Tx",
+            "m",
+            pair(true_of(|t| t.tx_m), estimate_of(|r| r.tx_m)),
+        ),
+        (
+            "Ty",
+            "m",
+            pair(true_of(|t| t.ty_m), estimate_of(|r| r.ty_m)),
+        ),
+        (
+            "Tz",
+            "m",
+            pair(true_of(|t| t.tz_m), estimate_of(|r| r.tz_m)),
+        ),
+        (
+            "pitch",
+            "deg",
+            with_alt(
+                pair(true_of(|t| t.pitch_deg), estimate_of(|r| r.pitch_deg)),
+                estimate_of(|r| r.pitch_alt_deg),
+            ),
+        ),
+        (
+            "yaw",
+            "deg",
+            with_alt(
+                pair(true_of(|t| t.yaw_deg), estimate_of(|r| r.yaw_deg)),
+                estimate_of(|r| r.yaw_alt_deg),
+            ),
+        ),
+        ("slant range |T|", "m", range),
+    ];
+    let root = BitMapBackend::new(path, (1500, 900)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let root = root.titled(title, (super::font::FAMILY, 26))?;
+    for (area, (name, unit, series)) in root.split_evenly((2, 3)).iter().zip(panels) {
+        draw_panel(area, name, unit, &series)?;
+    }
+    root.present()?;
+    Ok(())
+}
