@@ -1,6 +1,7 @@
 //! The imade harness: everything around the no_std core that needs `std`.
 //!
 //! - [`clip`]: the `imade-clip/1` recorded-clip format, read and written, and imade-results/1 read.
+//! - [`demo`]: `imade demo`, the main job: the Table 1 test clip run, scored and plotted.
 //! - [`eval`]: `imade eval`, results against ground truth beside the paper's figures.
 //! - [`exit`]: the binary's exit codes.
 //! - [`plot`]: `imade plot`, figures like the paper's.
@@ -9,6 +10,7 @@
 //! - [`sim`]: the clip simulator (`imade simulate`), with its own renderer, independent of the core.
 
 pub mod clip;
+pub mod demo;
 pub mod eval;
 pub mod exit;
 pub mod lut;

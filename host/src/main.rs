@@ -17,6 +17,8 @@ struct Cli {
 enum Command {
     /// Estimate the pose in every frame of recorded clips; write imade-results/1 CSVs.
     Run(imade_host::run::RunArgs),
+    /// The main job: run a clip with and without its range, score both against the paper, plot.
+    Demo(imade_host::demo::DemoArgs),
     /// Score a results file against the clip's ground truth, beside the paper's figures.
     Eval(imade_host::eval::EvalArgs),
     /// Draw figures like the paper's from results files (PNG).
@@ -31,10 +33,11 @@ fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let outcome = match cli.command {
         Command::Run(args) => imade_host::run::run(&args),
+        Command::Demo(args) => imade_host::demo::run(&args),
         Command::Eval(args) => imade_host::eval::run(&args),
         Command::Plot(args) => imade_host::plot::run(&args),
- imade_host::sim::run(&args),=>        Command::Simulate(args) => imade_host::sim::run(&args),
-        Command::Lut(args) => imade_host::lut::run(&args),=> imade_host::sim::run(&args),
+        Command::Lut(args) => imade_host::lut::run(&args),
+        Command::Simulate(args) => imade_host::sim::run(&args),
     };
     if let Err(error) = &outcome {
         eprintln!("imade: error: {error:#}");

@@ -62,7 +62,7 @@ pub struct RunArgs {
     /// (`masks/NNNNNN.png`, `priors/NNNNNN.png`, 8-bit, 0 or 255).
     #[arg(long)]
     pub save_masks: bool,
-    /// Silhouette table of the table match: `bundled` (fixtures/lut/<projectile>.lut), `none`
+    /// Silhouette table of the table match: `bundled` (`fixtures/lut/<projectile>.lut`), `none`
     /// (closed form only), or a table file.
     #[arg(long, default_value = "bundled")]
     pub lut: String,
