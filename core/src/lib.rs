@@ -11,6 +11,7 @@
 //! | background, threshold, components, target selection | [`segment`] | the target and its mask |
 //! | principal axis, nose tip, tail edge, subpixel diameter | [`extremes`] | [`Silhouette`] |
 //! | Eq. 1-2 in the line-of-sight frame, range from the diameter | [`closed_form`] | pose, both yaw candidates |
+//! | shaded cross-section, width profile matched against the silhouette table, shape prior | [`lut`] | refined pose, prior mask |
 //! | Eq. 5 range smoothing, range trend, yaw choice | [`temporal`] | the chosen candidate |
 //!
 //! [`Pipeline::process`] runs them all.
@@ -24,8 +25,8 @@ pub mod chip;
 pub mod closed_form;
 pub mod config;
 pub mod extremes;
-pub mod mask;
 pub mod lut;
+pub mod mask;
 pub mod model;
 pub mod pipeline;
 pub mod pose;

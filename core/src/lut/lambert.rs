@@ -21,6 +21,11 @@ const INTERVALS: usize = 12;
 /// Levenberg-Marquardt iterations at most.
 const MAX_ITERATIONS: usize = 25;
 
+/// Cost reduction, in residual variances per pixel, for the shading terms to be kept.
+const SIGNIFICANCE: f32 = 20.0;
+/// The largest relative change of the diameter from the box's that is believed.
+const MAX_CHANGE: f32 = 0.25;
+
 /// Parameters: background, c0, c1, c2, centre s0 (px), radius r (px), sigma (px).
 type Params = SVector<f32, 7>;
 
@@ -108,26 +113,19 @@ impl Slices {
     }
 }
 
-/// Fits the shaded section to `binned`, starting from the box fit `start` of the same pixels.
-pub fn fit(binned: &Binned, start: &CrossSection) -> Option<LambertSection> {
-    let slices = Slices::new();
-    // Start from the box: a uniform section with the box's linear shading.
-    let mut p = Params::from([
-        0.0,
-        start.contrast,
-        start.shading * 0.5 * start.diameter_px,
-        0.0,
-        start.offset_px,
-        0.5 * start.diameter_px,
-        start.sigma_px,
-    ]);
+/// Levenberg-Marquardt from `p`; `c2` stays fixed unless `free_c2`. Returns the parameters and
+/// their cost.
+fn minimize(slices: &Slices, binned: &Binned, mut p: Params, free_c2: bool) -> (Params, f32) {
     let mut cost = slices.cost(binned, &p);
     let mut lambda = 1e-2f32;
     for _ in 0..MAX_ITERATIONS {
         let mut jtj = SMatrix::<f32, 7, 7>::zeros();
         let mut jtr = Params::zeros();
         for (s, v, w) in binned.points() {
-            let (value, g) = slices.model(s, &p);
+            let (value, mut g) = slices.model(s, &p);
+            if !free_c2 {
+                g[3] = 0.0;
+            }
             jtj += g * g.transpose() * w;
             jtr += g * (w * (v - value));
         }
@@ -158,6 +156,33 @@ pub fn fit(binned: &Binned, start: &CrossSection) -> Option<LambertSection> {
             }
         }
     }
+    (p, cost)
+}
+
+/// Fits the shaded section to `binned`, starting from the box fit `start` of the same pixels.
+/// The curvature term `c2` is kept only where it reduces the cost significantly: on a
+/// uniformly dark body it would only trade with the diameter and add noise.
+pub fn fit(binned: &Binned, start: &CrossSection) -> Option<LambertSection> {
+    let slices = Slices::new();
+    // Start from the box: a uniform section with the box's linear shading.
+    let p = Params::from([
+        0.0,
+        start.contrast,
+        start.shading * 0.5 * start.diameter_px,
+        0.0,
+        start.offset_px,
+        0.5 * start.diameter_px,
+        start.sigma_px,
+    ]);
+    let (linear, linear_cost) = minimize(&slices, binned, p, false);
+    let (curved, curved_cost) = minimize(&slices, binned, linear, true);
+    let noise = curved_cost / binned.pixels.max(1) as f32;
+    let plausible = libm::fabsf(curved[5] / linear[5].max(1e-6) - 1.0) < MAX_CHANGE;
+    let p = if linear_cost - curved_cost > SIGNIFICANCE * noise && plausible {
+        curved
+    } else {
+        linear
+    };
     let section = LambertSection {
         diameter_px: 2.0 * p[5],
         mean_contrast: p[1] + core::f32::consts::FRAC_PI_4 * p[3],

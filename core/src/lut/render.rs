@@ -198,3 +198,98 @@ pub fn draw_entry<D: DrawTarget<Color = BinaryColor>>(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lut::table::Table;
+    use crate::mask::BitMask;
+    use crate::model::REF_1378X80;
+
+    /// Broadside silhouette area of the reference model, m²: cylinder, ogive (by Simpson's rule
+    /// over its radius) and two fins in the image plane.
+    fn broadside_area(m: &ProjectileModel) -> f32 {
+        let n = 200;
+        let h = m.nose_length_m / n as f32;
+        let ogive: f32 = (0..=n)
+            .map(|i| {
+                let w = if i == 0 || i == n {
+                    1.0
+                } else if i % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                };
+                w * 2.0 * m.radius_at(i as f32 * h)
+            })
+            .sum::<f32>()
+            * h
+            / 3.0;
+        let cylinder = (m.length_m - m.nose_length_m) * m.diameter_m;
+        let fins = 2.0
+            * (m.fin_tip_radius_m - m.radius_m())
+            * 0.5
+            * (m.fin_root_chord_m + m.fin_tip_chord_m);
+        ogive + cylinder + fins
+    }
+
+    fn drawn_area(draw_it: impl FnOnce(&mut BitMask<8192>, Placement), px_per_unit: f32) -> f32 {
+        let mut mask = BitMask::<8192>::new();
+        mask.reset(512, 512).unwrap();
+        draw_it(
+            &mut mask,
+            Placement {
+                origin: (255.0, 255.0),
+                dir: (0.6, 0.8),
+                px_per_unit,
+            },
+        );
+        mask.count() as f32 / (px_per_unit * px_per_unit)
+    }
+
+    /// embedded-graphics fills every pixel a triangle's edges touch, so a drawn silhouette is
+    /// about half a pixel wider all round: the expected count is the area plus half a pixel
+    /// times the perimeter (about twice the length plus the fins' free edges).
+    #[test]
+    fn the_model_and_its_table_entry_draw_the_broadside_area() {
+        let m = REF_1378X80;
+        let px_per_m = 300.0;
+        let perimeter = 2.0 * m.length_m + 4.0 * (m.fin_tip_radius_m - m.radius_m());
+        let expected = broadside_area(&m) + 0.5 / px_per_m * perimeter;
+        let view = View {
+            tilt_deg: 0.0,
+            roll_deg: 0.0,
+        };
+        let model_area = drawn_area(|t, p| draw(t, &m, &view, &p).unwrap(), px_per_m);
+        assert!(
+            (model_area / expected - 1.0).abs() < 0.02,
+            "{model_area} vs {expected}"
+        );
+        let table = Table::parse(include_bytes!("../../../fixtures/lut/ref-1378x80.lut")).unwrap();
+        let d = m.diameter_m;
+        let entry_area = drawn_area(
+            |t, p| draw_entry(t, &table.entry(0, 0), &p).unwrap(),
+            px_per_m * d,
+        ) * d
+            * d;
+        assert!(
+            (entry_area / expected - 1.0).abs() < 0.03,
+            "{entry_area} vs {expected}"
+        );
+    }
+
+    #[test]
+    fn absurd_placements_draw_nothing() {
+        let view = View {
+            tilt_deg: 10.0,
+            roll_deg: 5.0,
+        };
+        for px_per_unit in [f32::NAN, f32::INFINITY, 1e9] {
+            let area = drawn_area(
+                |t, p| draw(t, &REF_1378X80, &view, &p).unwrap(),
+                px_per_unit,
+            );
+            assert!(area == 0.0 || area.is_nan(), "{px_per_unit}: {area}");
+        }
+    }
+}

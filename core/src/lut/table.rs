@@ -262,3 +262,80 @@ impl Entry<'_> {
         (a0 + f * (b0 - a0), a1 + f * (b1 - a1))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::REF_1378X80;
+
+    /// The bundled table, built by `imade lut build --model ref-1378x80`.
+    static BUNDLED: &[u8] = include_bytes!("../../../fixtures/lut/ref-1378x80.lut");
+
+    #[test]
+    fn the_bundled_table_parses_for_its_model() {
+        let t = Table::parse_for(BUNDLED, &REF_1378X80).unwrap();
+        assert_eq!(t.model_id(), "ref-1378x80");
+        assert_eq!((t.tilts(), t.rolls(), t.stations()), (91, 18, 96));
+        assert!(BUNDLED.len() <= 512 * 1024, "the table budget is 512 KiB");
+    }
+
+    #[test]
+    fn broadside_entry_has_the_models_dimensions() {
+        let t = Table::parse(BUNDLED).unwrap();
+        let e = t.entry(0, 0);
+        let half = 0.5 * REF_1378X80.length_m / REF_1378X80.diameter_m;
+        let (lo, hi) = e.u_range();
+        assert!(
+            (lo + half).abs() < 2e-3 && (hi - half).abs() < 2e-3,
+            "{lo} {hi}"
+        );
+        // The cylinder's middle is one diameter wide.
+        let (v0, v1) = e.edges_at(0.0);
+        assert!(
+            (v0 + 0.5).abs() < 0.02 && (v1 - 0.5).abs() < 0.02,
+            "{v0} {v1}"
+        );
+        // At roll 0 two fins lie in the image plane: their tips 1.25 D from the axis.
+        let tip = REF_1378X80.fin_tip_radius_m / REF_1378X80.diameter_m;
+        let (f0, f1) = e.edges_at(-half + 0.5);
+        assert!(
+            (f0 + tip).abs() < 0.03 && (f1 - tip).abs() < 0.03,
+            "{f0} {f1}"
+        );
+    }
+
+    #[test]
+    fn damaged_tables_are_refused() {
+        let mut bytes = [0u8; 400_000];
+        let n = BUNDLED.len();
+        bytes[..n].copy_from_slice(BUNDLED);
+        let table = &mut bytes[..n];
+        table[1000] ^= 1;
+        assert_eq!(Table::parse(table).err(), Some(TableError::Checksum));
+        table[1000] ^= 1;
+        table[0] = b'X';
+        assert_eq!(Table::parse(table).err(), Some(TableError::Magic));
+        table[0] = b'I';
+        table[8] = 2;
+        assert_eq!(Table::parse(table).err(), Some(TableError::Version(2)));
+        table[8] = 1;
+        assert_eq!(
+            Table::parse(&table[..n - 1]).err(),
+            Some(TableError::Length)
+        );
+        assert_eq!(Table::parse(&table[..10]).err(), Some(TableError::Length));
+        table[52] = 0;
+        table[53] = 0;
+        assert_eq!(Table::parse(table).err(), Some(TableError::Grid));
+        table[52] = 91;
+        assert!(Table::parse(table).is_ok());
+        let other = ProjectileModel {
+            id: "other",
+            ..REF_1378X80
+        };
+        assert_eq!(
+            Table::parse_for(table, &other).err(),
+            Some(TableError::Model)
+        );
+    }
+}
