@@ -37,3 +37,14 @@ pub const PROFILE_BINS: usize = 768;
 
 /// Frames in the temporal window (yaw disambiguation and Tz trend).
 pub const MAX_WINDOW: usize = 32;
+
+/// Cells of the oriented sampling grid of shape-guided segmentation (SIS-Cut's region labels,
+/// GVF-ASM's edge map and flow field): the prior's region plus a margin is sampled onto at most
+/// this many cells, coarser than 1 px when the region is larger.
+pub const SHAPE_GRID_CELLS: usize = 3072;
+
+/// Boundary points of the shape prior that GVF-ASM moves (a longer boundary is strided down).
+pub const SHAPE_BOUNDARY_POINTS: usize = 512;
+
+/// Largest number of intensity-histogram bins of SIS-Cut.
+pub const SHAPE_HIST_BINS: usize = 64;

@@ -32,6 +32,7 @@ pub mod pipeline;
 pub mod pose;
 pub mod results;
 pub mod segment;
+pub mod shape_guided;
 pub mod temporal;
 
 pub use camera::Camera;

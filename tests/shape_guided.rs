@@ -1,0 +1,418 @@
+//! Shape-guided segmentation (SIS-Cut and GVF-ASM, the source paper's Algorithms 2 and 1)
+//! against independent truth: chips and truth masks from the ray-casting renderer, or the
+//! Table 1 test clip's chips and masks; priors rendered by the same renderer at a deliberately
+//! wrong pose. The IoU against the truth of the prior and of each method's mask is compared, as
+//! the paper's Fig. 19 does. Run with `--nocapture` for the tables.
+
+use imade_core::shape_guided::{Method, ShapeGuided, ShapeGuidedConfig};
+use imade_core::{Camera, ChipMask, ChipView, Config, FrameInput, Pipeline, REF_1378X80, Status};
+use imade_host::clip::{Clip, load_chip, load_mask};
+use imade_tests::render::{
+    ChipStyle, Intrinsics, Rng, TruePose, chip_u8, coverage, project, rotation,
+};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+const CAM: Intrinsics = Intrinsics {
+    fx: 100000.0,
+    fy: 100000.0,
+    cx: 1023.5,
+    cy: 1023.5,
+};
+
+const CHIP: usize = 256;
+
+/// Sub-pixel samples per side when rendering a prior (a binary mask needs fewer than a chip).
+const PRIOR_SS: usize = 4;
+
+/// A chip-sized mask from one bool per pixel, row-major.
+fn to_mask(bits: &[bool], w: usize, h: usize) -> ChipMask {
+    let mut m = ChipMask::new();
+    m.reset(w, h).expect("chip-sized");
+    for (k, _) in bits.iter().enumerate().filter(|(_, b)| **b) {
+        m.set(k % w, k / w, true);
+    }
+    m
+}
+
+/// Intersection over union of a mask and the truth.
+fn iou(mask: &ChipMask, truth: &[bool], w: usize) -> f64 {
+    let (mut both, mut either) = (0usize, 0usize);
+    for (k, &t) in truth.iter().enumerate() {
+        let m = mask.get(k % w, k / w);
+        both += usize::from(m && t);
+        either += usize::from(m || t);
+    }
+    if either == 0 {
+        1.0
+    } else {
+        both as f64 / either as f64
+    }
+}
+
+/// The silhouette at `pose` as a half-coverage mask of the chip at `origin`.
+fn prior_mask(
+    cam: &Intrinsics,
+    pose: &TruePose,
+    origin: (i64, i64),
+    w: usize,
+    h: usize,
+) -> ChipMask {
+    let cov = coverage(cam, pose, origin.0, origin.1, w, h, PRIOR_SS);
+    let bits: Vec<bool> = cov.iter().map(|&c| c >= 0.5).collect();
+    to_mask(&bits, w, h)
+}
+
+/// Row-major 3 x 3 product.
+fn mul(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
+}
+
+/// `pose` with its attitude turned by `angle_deg` about the line of sight to the body origin
+/// (an in-plane rotation of the silhouette), its origin moved by (`du`, `dv`) px in the image
+/// and its distance scaled by `range_factor` (the silhouette scales by about its inverse).
+fn perturbed(pose: &TruePose, du: f64, dv: f64, range_factor: f64, angle_deg: f64) -> TruePose {
+    let t = pose.t;
+    let norm = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+    let m = [t[0] / norm, t[1] / norm, t[2] / norm];
+    // Rodrigues rotation about m.
+    let (s, c) = angle_deg.to_radians().sin_cos();
+    let k = [[0.0, -m[2], m[1]], [m[2], 0.0, -m[0]], [-m[1], m[0], 0.0]];
+    let kk = mul(&k, &k);
+    let turn: [[f64; 3]; 3] = std::array::from_fn(|i| {
+        std::array::from_fn(|j| f64::from(u8::from(i == j)) + s * k[i][j] + (1.0 - c) * kk[i][j])
+    });
+    let r = mul(
+        &turn,
+        &rotation(pose.pitch_deg, pose.yaw_deg, pose.roll_deg),
+    );
+    // Nose = first column of R (C = (right, down, forward)): (cp sy, -sp, cp cy).
+    let nose = [r[0][0], r[1][0], r[2][0]];
+    let pitch = (-nose[1]).asin().to_degrees();
+    let yaw = nose[0].atan2(nose[2]).to_degrees();
+    // Roll: R = R(pitch, yaw, 0) Rx(roll), so Rx(roll) = R(pitch, yaw, 0)^T R.
+    let r0 = rotation(pitch, yaw, 0.0);
+    let r0t: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| r0[j][i]));
+    let rx = mul(&r0t, &r);
+    let roll = rx[2][1].atan2(rx[1][1]).to_degrees();
+    let per_px = t[2] / CAM.fx;
+    TruePose {
+        t: [
+            (t[0] + du * per_px) * range_factor,
+            (t[1] + dv * per_px) * range_factor,
+            t[2] * range_factor,
+        ],
+        pitch_deg: pitch,
+        yaw_deg: yaw,
+        roll_deg: roll,
+    }
+}
+
+/// IoU of the prior and of each method's mask, and each method's time.
+#[derive(Debug, Clone, Copy)]
+struct Outcome {
+    prior: f64,
+    methods: [f64; 2],
+    times: [Duration; 2],
+}
+
+/// Refines `prior` on `chip` with both methods and scores everything against `truth`.
+fn evaluate(sg: &mut ShapeGuided, chip: &ChipView, prior: &ChipMask, truth: &[bool]) -> Outcome {
+    let config = ShapeGuidedConfig::DEFAULT;
+    let w = chip.width();
+    let mut out = ChipMask::new();
+    let mut methods = [0.0; 2];
+    let mut times = [Duration::ZERO; 2];
+    for (k, method) in Method::ALL.into_iter().enumerate() {
+        let start = Instant::now();
+        let refined = sg.refine(method, &config, chip, prior, &mut out);
+        times[k] = start.elapsed();
+        // A refusal keeps the prior, as the pipeline would.
+        methods[k] = match refined {
+            Ok(_) => iou(&out, truth, w),
+            Err(_) => iou(prior, truth, w),
+        };
+    }
+    Outcome {
+        prior: iou(prior, truth, w),
+        methods,
+        times,
+    }
+}
+
+/// Quartiles (25 %, median, 75 %).
+fn quartiles(mut v: Vec<f64>) -> [f64; 3] {
+    v.sort_by(f64::total_cmp);
+    let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+    [at(0.25), at(0.5), at(0.75)]
+}
+
+/// Prints the IoU quartiles of the prior and both methods, with the share of cases each method
+/// improved; returns (prior median, [method medians], [improved shares]).
+fn report(title: &str, outcomes: &[Outcome]) -> (f64, [f64; 2], [f64; 2]) {
+    println!(
+        "{title} ({} cases): IoU against truth, 25% / median / 75%",
+        outcomes.len()
+    );
+    let prior = quartiles(outcomes.iter().map(|o| o.prior).collect());
+    println!(
+        "  {:10} {:.3} / {:.3} / {:.3}",
+        "prior", prior[0], prior[1], prior[2]
+    );
+    let mut medians = [0.0; 2];
+    let mut improved = [0.0; 2];
+    for (k, method) in Method::ALL.into_iter().enumerate() {
+        let q = quartiles(outcomes.iter().map(|o| o.methods[k]).collect());
+        let better = outcomes.iter().filter(|o| o.methods[k] > o.prior).count();
+        let ms = outcomes
+            .iter()
+            .map(|o| o.times[k].as_secs_f64())
+            .sum::<f64>()
+            * 1e3
+            / outcomes.len() as f64;
+        println!(
+            "  {:10} {:.3} / {:.3} / {:.3}   better than the prior in {better} of {}, {ms:.1} ms a frame",
+            method.as_str(),
+            q[0],
+            q[1],
+            q[2],
+            outcomes.len()
+        );
+        medians[k] = q[1];
+        improved[k] = better as f64 / outcomes.len() as f64;
+    }
+    (prior[1], medians, improved)
+}
+
+/// A pose at slant range `range` whose body origin images at full-frame pixel `at`.
+fn pose_at(range: f64, at: (f64, f64), pitch: f64, yaw: f64, roll: f64) -> TruePose {
+    let ray = [(at.0 - CAM.cx) / CAM.fx, (at.1 - CAM.cy) / CAM.fy, 1.0];
+    let norm = (ray[0] * ray[0] + ray[1] * ray[1] + 1.0).sqrt();
+    TruePose {
+        t: ray.map(|c| range * c / norm),
+        pitch_deg: pitch,
+        yaw_deg: yaw,
+        roll_deg: roll,
+    }
+}
+
+/// Rendered chips over a pose grid, each with a prior shifted by about 3 px, scaled by 6 % and
+/// turned by 4 deg in the image (a wrong pose whose silhouette is still an affine image of the
+/// truth's); returns the outcomes.
+fn synthetic_cases(style: &ChipStyle) -> Vec<Outcome> {
+    let mut sg = ShapeGuided::new();
+    let mut outcomes = Vec::new();
+    let mut seed = 7u64;
+    for range in [1000.0, 1500.0] {
+        for pitch in [-20.0, 10.0, 35.0] {
+            for yaw in [-120.0, -70.0, 50.0, 100.0] {
+                seed += 1;
+                let sign = if seed % 2 == 0 { 1.0 } else { -1.0 };
+                let truth = pose_at(range, (1100.0, 950.0), pitch, yaw, 13.0 * seed as f64);
+                let (u, v) = project(&CAM, &truth, [0.0; 3]);
+                let origin = (
+                    u.round() as i64 - CHIP as i64 / 2,
+                    v.round() as i64 - CHIP as i64 / 2,
+                );
+                let (pixels, truth_mask) =
+                    chip_u8(&CAM, &truth, origin, (CHIP, CHIP), style, &mut Rng(seed));
+                let wrong = perturbed(&truth, 2.5 * sign, -1.5, 1.0 + 0.06 * sign, 4.0 * sign);
+                let prior = prior_mask(&CAM, &wrong, origin, CHIP, CHIP);
+                let chip =
+                    ChipView::gray8(&pixels, CHIP, CHIP, CHIP, origin.0 as i32, origin.1 as i32)
+                        .expect("chip");
+                outcomes.push(evaluate(&mut sg, &chip, &prior, &truth_mask));
+            }
+        }
+    }
+    outcomes
+}
+
+/// Dark body, PSF 0.8 px, noise 1 grey level, a faint sky gradient.
+const CLEAN: ChipStyle = ChipStyle {
+    sky: 170.0,
+    body: 60.0,
+    gradient: (0.05, -0.03),
+    psf_sigma: 0.8,
+    noise: 1.0,
+};
+
+/// A seventh of [`CLEAN`]'s contrast, a steeper gradient, a wider PSF and noise 7 grey levels:
+/// contrast to noise about 2.1.
+const NOISY: ChipStyle = ChipStyle {
+    sky: 150.0,
+    body: 135.0,
+    gradient: (0.15, -0.1),
+    psf_sigma: 1.2,
+    noise: 7.0,
+};
+
+#[test]
+fn both_methods_improve_a_wrong_prior_on_clean_chips() {
+    let outcomes = synthetic_cases(&CLEAN);
+    let (prior, medians, improved) = report("clean rendered chips", &outcomes);
+    for (k, method) in Method::ALL.into_iter().enumerate() {
+        assert!(
+            medians[k] > prior + 0.15,
+            "{}: median IoU {:.3} vs prior {prior:.3}",
+            method.as_str(),
+            medians[k]
+        );
+        assert!(
+            improved[k] >= 0.9,
+            "{}: improved {:.2}",
+            method.as_str(),
+            improved[k]
+        );
+    }
+}
+
+#[test]
+fn noisy_low_contrast_chips_are_reported() {
+    let outcomes = synthetic_cases(&NOISY);
+    let (prior, medians, _) = report("noisy low-contrast rendered chips", &outcomes);
+    // SIS-Cut compares grey-level distributions over whole regions and barely notices the
+    // noise; GVF-ASM follows the noisy edge map and keeps only part of its gain.
+    let [sis_cut, gvf_asm] = medians;
+    assert!(
+        sis_cut > prior + 0.15,
+        "sis-cut: {sis_cut:.3} vs prior {prior:.3}"
+    );
+    assert!(gvf_asm > prior, "gvf-asm: {gvf_asm:.3} vs prior {prior:.3}");
+}
+
+/// The bundled Table 1 test clip.
+fn table1() -> Clip {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/table1-test");
+    Clip::open(&dir).expect("fixture clip")
+}
+
+#[test]
+fn fixture_clip_blind_prior_and_refined_masks() {
+    let clip = table1();
+    let cam_meta = clip.meta.camera;
+    let cam = Intrinsics {
+        fx: cam_meta.fx,
+        fy: cam_meta.fy,
+        cx: cam_meta.cx,
+        cy: cam_meta.cy,
+    };
+    let camera = Camera {
+        fx: cam.fx as f32,
+        fy: cam.fy as f32,
+        cx: cam.cx as f32,
+        cy: cam.cy as f32,
+    };
+    let mut pipeline: Pipeline = Pipeline::new(Config::DEFAULT, camera, REF_1378X80);
+    let mut sg = ShapeGuided::new();
+    let mut rng = Rng(1378);
+    let mut outcomes = Vec::new();
+    let mut blind = Vec::new();
+    let mut exact = Vec::new();
+    let mut near = Vec::new();
+    let mut roll_rng = Rng(90);
+    for (index, row) in clip
+        .frames
+        .iter()
+        .map(|r| r.as_ref().expect("valid row"))
+        .enumerate()
+    {
+        let image = load_chip(&clip.path_of(&row.chip)).expect("chip");
+        let (w, h) = (image.width as usize, image.height as usize);
+        let (mw, mh, truth) =
+            load_mask(&clip.path_of(row.gt_mask.as_deref().expect("mask"))).expect("mask");
+        assert_eq!((mw as usize, mh as usize), (w, h));
+        let chip = image
+            .view(row.chip_x0 as i32, row.chip_y0 as i32)
+            .expect("view");
+        let result = pipeline.process(&FrameInput {
+            chip,
+            time_s: row.time_s,
+            range_m: row.range_m.map(|r| r as f32),
+        });
+        if result.status == Status::Ok {
+            blind.push(iou(pipeline.mask(), &truth, w));
+        }
+        let gt = row.truth.expect("ground truth");
+        let truth_pose = TruePose {
+            t: [gt.tx_m, gt.ty_m, gt.tz_m],
+            pitch_deg: gt.pitch_deg,
+            yaw_deg: gt.yaw_deg,
+            roll_deg: gt.roll_deg,
+        };
+        let origin = (row.chip_x0, row.chip_y0);
+        if index % 10 == 0 {
+            // The independent renderer at the true pose against the simulator's mask.
+            exact.push(iou(&prior_mask(&cam, &truth_pose, origin, w, h), &truth, w));
+        }
+        if index % 5 == 0 {
+            // A prior that is right but for the roll: what refinement does to a good prior.
+            let rolled = TruePose {
+                roll_deg: 360.0 * roll_rng.uniform(),
+                ..truth_pose
+            };
+            let prior = prior_mask(&cam, &rolled, origin, w, h);
+            near.push(evaluate(&mut sg, &chip, &prior, &truth));
+        }
+        // The prior: the true pose perturbed as a table match might miss it (in-plane ~1.5 px,
+        // range ~4 %, pitch ~2 deg, yaw ~5 deg), the roll unknown (any).
+        let per_px = gt.tz_m / cam.fx;
+        let range_factor = 1.0 + 0.04 * rng.gaussian();
+        let wrong = TruePose {
+            t: [
+                (truth_pose.t[0] + 1.5 * per_px * rng.gaussian()) * range_factor,
+                (truth_pose.t[1] + 1.5 * per_px * rng.gaussian()) * range_factor,
+                truth_pose.t[2] * range_factor,
+            ],
+            pitch_deg: truth_pose.pitch_deg + 2.0 * rng.gaussian(),
+            yaw_deg: truth_pose.yaw_deg + 5.0 * rng.gaussian(),
+            roll_deg: 360.0 * rng.uniform(),
+        };
+        let prior = prior_mask(&cam, &wrong, origin, w, h);
+        outcomes.push(evaluate(&mut sg, &chip, &prior, &truth));
+    }
+    let print = |label: &str, v: &[f64]| {
+        let q = quartiles(v.to_vec());
+        println!(
+            "{label}, {} frames: {:.3} / {:.3} / {:.3}",
+            v.len(),
+            q[0],
+            q[1],
+            q[2]
+        );
+        q[1]
+    };
+    let exact = print(
+        "prior at the exact pose (renderer vs simulator masks)",
+        &exact,
+    );
+    let blind = print("blind mask (the pipeline's segmentation)", &blind);
+    let (good, good_medians, _) =
+        report("table1-test, prior at the true pose, roll unknown", &near);
+    let (prior, medians, _) = report("table1-test, prior from a perturbed true pose", &outcomes);
+    assert_eq!(outcomes.len(), 175);
+    assert!(
+        exact > 0.9,
+        "the renderer's silhouettes match the clip's masks: {exact:.3}"
+    );
+    // GVF-ASM leaves a good prior where it is; SIS-Cut grows it over the blurred edge (its
+    // criterion's bias, reported in docs/shape-guided.md, not asserted).
+    assert!(
+        good_medians[1] > good - 0.02,
+        "gvf-asm on a good prior: {:.3} vs {good:.3}",
+        good_medians[1]
+    );
+    let [sis_cut, gvf_asm] = medians;
+    assert!(
+        sis_cut > prior + 0.1,
+        "sis-cut: {sis_cut:.3} vs prior {prior:.3}"
+    );
+    assert!(
+        gvf_asm > prior + 0.05,
+        "gvf-asm: {gvf_asm:.3} vs prior {prior:.3}"
+    );
+    // Neither reaches the blind mask from a prior this wrong (see docs/shape-guided.md).
+    println!(
+        "medians: blind {blind:.3}, prior {prior:.3}, sis-cut {sis_cut:.3}, gvf-asm {gvf_asm:.3}"
+    );
+}
