@@ -96,9 +96,9 @@ impl Gvf {
         // The field starts as the edge map's gradient.
         for j in 0..h {
             for i in 0..w {
-                let (fx, fy) = edge_gradient(edge, w, h, i, j);
-                let k = grid.index(i, j);
-                if let (Some(a), Some(b)) = (u.get_mut(k), v.get_mut(k)) {
+                let at = Around::of(i, j, w, h);
+                let (fx, fy) = at.edge_gradient(edge);
+                if let (Some(a), Some(b)) = (u.get_mut(at.centre), v.get_mut(at.centre)) {
                     *a = fx;
                     *b = fy;
                 }
@@ -106,16 +106,19 @@ impl Gvf {
         }
         let mu = mu.clamp(0.0, MAX_MU);
         for sweep in 0..iterations {
-            for k in 0..n {
-                let k = if sweep % 2 == 0 { k } else { n - 1 - k };
-                let (i, j) = (k % w, k / w);
-                let (fx, fy) = edge_gradient(edge, w, h, i, j);
-                let b = fx * fx + fy * fy;
-                let lap_u = laplacian(u, w, h, i, j);
-                let lap_v = laplacian(v, w, h, i, j);
-                if let (Some(a), Some(c)) = (u.get_mut(k), v.get_mut(k)) {
-                    *a += mu * lap_u - b * (*a - fx);
-                    *c += mu * lap_v - b * (*c - fy);
+            let forward = sweep % 2 == 0;
+            for row in 0..h {
+                let j = if forward { row } else { h - 1 - row };
+                for col in 0..w {
+                    let i = if forward { col } else { w - 1 - col };
+                    let at = Around::of(i, j, w, h);
+                    let (fx, fy) = at.edge_gradient(edge);
+                    let b = fx * fx + fy * fy;
+                    let (lap_u, lap_v) = (at.laplacian(u), at.laplacian(v));
+                    if let (Some(a), Some(c)) = (u.get_mut(at.centre), v.get_mut(at.centre)) {
+                        *a += mu * lap_u - b * (*a - fx);
+                        *c += mu * lap_v - b * (*c - fy);
+                    }
                 }
             }
         }
@@ -154,23 +157,48 @@ fn clamped(buf: &[f32], w: usize, h: usize, i: usize, j: usize, di: isize, dj: i
     buf.get(y * w + x).copied().unwrap_or(0.0)
 }
 
-/// Five-point Laplacian with replicated borders.
-#[inline]
-fn laplacian(buf: &[f32], w: usize, h: usize, i: usize, j: usize) -> f32 {
-    let at = |di, dj| clamped(buf, w, h, i, j, di, dj);
-    at(1, 0) + at(-1, 0) + at(0, 1) + at(0, -1) - 4.0 * at(0, 0)
+/// Buffer indices of a cell and of its four neighbours, the neighbours clamped to the grid
+/// (replicated borders).
+#[derive(Debug, Clone, Copy)]
+struct Around {
+    centre: usize,
+    left: usize,
+    right: usize,
+    up: usize,
+    down: usize,
 }
 
-/// Central-difference gradient of the normalized edge map, per cell.
-#[inline]
-fn edge_gradient(edge: &[u16], w: usize, h: usize, i: usize, j: usize) -> (f32, f32) {
-    let at = |di: isize, dj: isize| {
-        let x = i.saturating_add_signed(di).min(w.saturating_sub(1));
-        let y = j.saturating_add_signed(dj).min(h.saturating_sub(1));
-        edge.get(y * w + x)
-            .map_or(0.0, |&e| f32::from(e) / EDGE_SCALE)
-    };
-    (0.5 * (at(1, 0) - at(-1, 0)), 0.5 * (at(0, 1) - at(0, -1)))
+impl Around {
+    /// Cell (i, j) of a `w` x `h` grid.
+    #[inline]
+    fn of(i: usize, j: usize, w: usize, h: usize) -> Around {
+        let centre = j * w + i;
+        Around {
+            centre,
+            left: if i > 0 { centre - 1 } else { centre },
+            right: if i + 1 < w { centre + 1 } else { centre },
+            up: if j > 0 { centre - w } else { centre },
+            down: if j + 1 < h { centre + w } else { centre },
+        }
+    }
+
+    /// Five-point Laplacian of `buf`.
+    #[inline]
+    fn laplacian(&self, buf: &[f32]) -> f32 {
+        let at = |k: usize| buf.get(k).copied().unwrap_or(0.0);
+        at(self.left) + at(self.right) + at(self.up) + at(self.down) - 4.0 * at(self.centre)
+    }
+
+    /// Central-difference gradient of the normalized edge map, per cell.
+    #[inline]
+    fn edge_gradient(&self, edge: &[u16]) -> (f32, f32) {
+        let at = |k: usize| edge.get(k).map_or(0.0, |&e| f32::from(e));
+        let half = 0.5 / EDGE_SCALE;
+        (
+            half * (at(self.right) - at(self.left)),
+            half * (at(self.down) - at(self.up)),
+        )
+    }
 }
 
 #[cfg(test)]

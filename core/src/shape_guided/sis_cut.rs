@@ -63,7 +63,7 @@ impl SisCutConfig {
             f_tolerance: 1e-4,
             x_tolerance: 1e-3,
         },
-        restarts: 1,
+        restarts: 0,
     };
 }
 
