@@ -416,3 +416,80 @@ fn fixture_clip_blind_prior_and_refined_masks() {
         "medians: blind {blind:.3}, prior {prior:.3}, sis-cut {sis_cut:.3}, gvf-asm {gvf_asm:.3}"
     );
 }
+
+/// A config with every tunable drawn from `values` (including zero, negative, huge and NaN).
+fn odd_config(values: &[f32]) -> ShapeGuidedConfig {
+    let mut c = ShapeGuidedConfig::DEFAULT;
+    let at = |k: usize| values[k % values.len()];
+    c.sis_cut.ring_px = at(0);
+    c.sis_cut.bins = at(1).abs().min(1e6) as usize;
+    c.sis_cut.uniform_mix = at(2);
+    c.sis_cut.probe_px = at(3);
+    c.sis_cut.max_shift_px = at(4);
+    c.sis_cut.max_log_scale = at(5);
+    c.sis_cut.search.max_evaluations = at(6).abs().min(300.0) as u32;
+    c.gvf_asm.capture_px = at(7);
+    c.gvf_asm.mu = at(8);
+    c.gvf_asm.gvf_iterations = at(9).abs().min(50.0) as u32;
+    c.gvf_asm.asm_iterations = at(10).abs().min(50.0) as u32;
+    c.gvf_asm.gain_px = at(11);
+    c.gvf_asm.step_px = at(12);
+    c
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+    /// Any chip, any prior and any tunables: a result or an error, never a panic; a result's
+    /// mask has the chip's size and the pixels it reports.
+    #[test]
+    fn any_input_gives_a_result_or_an_error(
+        w in 1usize..48,
+        h in 1usize..48,
+        wide in proptest::bool::ANY,
+        seed in 0u64..1000,
+        density in 0.0f64..1.0,
+        default_config in proptest::bool::ANY,
+        values in proptest::collection::vec(
+            proptest::prop_oneof![
+                -1e30f32..1e30,
+                -5.0f32..50.0,
+                proptest::strategy::Just(f32::NAN),
+                proptest::strategy::Just(f32::INFINITY),
+                proptest::strategy::Just(0.0f32),
+            ],
+            13,
+        ),
+    ) {
+        let mut rng = Rng(seed);
+        let narrow: Vec<u8> = (0..w * h).map(|_| (rng.uniform() * 256.0) as u8).collect();
+        let deep: Vec<u16> = narrow.iter().map(|&v| u16::from(v) * 257).collect();
+        let chip = if wide {
+            ChipView::gray16(&deep, w, h, w, 0, 0)
+        } else {
+            ChipView::gray8(&narrow, w, h, w, 0, 0)
+        }
+        .expect("chip");
+        // A random blob: a rectangle with random holes.
+        let (x0, y0) = ((rng.uniform() * w as f64) as usize, (rng.uniform() * h as f64) as usize);
+        let (x1, y1) = ((rng.uniform() * w as f64) as usize, (rng.uniform() * h as f64) as usize);
+        let bits: Vec<bool> = (0..w * h)
+            .map(|k| {
+                let (x, y) = (k % w, k / w);
+                (x0.min(x1)..=x0.max(x1)).contains(&x)
+                    && (y0.min(y1)..=y0.max(y1)).contains(&y)
+                    && rng.uniform() < density
+            })
+            .collect();
+        let prior = to_mask(&bits, w, h);
+        let config = if default_config { ShapeGuidedConfig::DEFAULT } else { odd_config(&values) };
+        let mut sg = ShapeGuided::new();
+        let mut out = ChipMask::new();
+        for method in Method::ALL {
+            if let Ok(r) = sg.refine(method, &config, &chip, &prior, &mut out) {
+                proptest::prop_assert_eq!((out.width(), out.height()), (w, h));
+                proptest::prop_assert_eq!(r.area_px, out.count());
+            }
+        }
+    }
+}

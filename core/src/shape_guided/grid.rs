@@ -30,8 +30,11 @@ impl Grid {
             return None;
         }
         let mut step = libm::sqrtf(len_u.max(1.0) * len_v.max(1.0) / capacity as f32).max(1.0);
-        let cells_along =
-            |len: f32, step: f32| (libm::ceilf(len.max(0.0) / step) as usize + 1).max(2);
+        let cells_along = |len: f32, step: f32| {
+            (libm::ceilf(len.max(0.0) / step) as usize)
+                .saturating_add(1)
+                .max(2)
+        };
         // The product of the rounded-up sides can exceed the capacity by a few rows: grow the
         // step until it fits (each 2 % step shrinks both sides, so this ends).
         let (width, height) = loop {
