@@ -72,7 +72,7 @@ pub struct Refined {
     /// Where the matched entry's silhouette lies on the chip (px per body diameter).
     pub placement: Placement,
     /// The projected nose tip and tail base, full-frame px.
-    pub ends: (Vector2<f32>, Vector2<f32>),
+    pub ends: [(f32, f32); 2],
 }
 
 /// One frame's measurements, as the table match needs them.
@@ -153,7 +153,7 @@ pub fn refine(
     }
     let ends = matched_ends(&axis, &matched, model, frame.origin);
     Ok(Refined {
-        solution: closed_form::from_ends(ends.0, ends.1, camera, model.length_m, range),
+        solution: closed_form::from_ends(ends[0], ends[1], camera, model.length_m, range),
         range_m: range,
         matched,
         section,
@@ -166,14 +166,15 @@ pub fn refine(
             dir: axis.dir,
             px_per_unit: matched.px_per_d,
         },
-        ends,
+        ends: ends.map(|p| (p.x, p.y)),
     })
 }
 
 impl Refined {
     /// The same match at another slant range (the smoothed one of the temporal stage).
     pub fn at_range(&self, camera: &Camera, model: &ProjectileModel, range_m: f32) -> ClosedForm {
-        closed_form::from_ends(self.ends.0, self.ends.1, camera, model.length_m, range_m)
+        let [nose, tail] = self.ends.map(|(x, y)| Vector2::new(x, y));
+        closed_form::from_ends(nose, tail, camera, model.length_m, range_m)
     }
 }
 
@@ -183,7 +184,7 @@ fn matched_ends(
     matched: &Match,
     model: &ProjectileModel,
     origin: (i32, i32),
-) -> (Vector2<f32>, Vector2<f32>) {
+) -> [Vector2<f32>; 2] {
     let half = 0.5 * model.length_m / model.diameter_m
         * libm::cosf(matched.tilt_deg * RAD)
         * matched.px_per_d;
@@ -192,7 +193,7 @@ fn matched_ends(
         let (x, y) = axis.point(t);
         o + Vector2::new(x, y)
     };
-    (at(matched.origin_t + half), at(matched.origin_t - half))
+    [at(matched.origin_t + half), at(matched.origin_t - half)]
 }
 
 /// The shaded cross-section of the cylinder between the nose shoulder and the fins.
