@@ -7,6 +7,7 @@
 //! - [`plot`]: `imade plot`, figures like the paper's.
 //! - [`run`]: `imade run`, the core's pipeline over clips; [`summary`] its JSON summary, [`stages`]
 //!   the segmentation stages whose masks it saves.
+//! - [`pack`]: `imade pack`, a clip packed for the firmware (`firmware-sim/`).
 //! - [`sim`]: the clip simulator (`imade simulate`), with its own renderer, independent of the core.
 
 pub mod clip;
@@ -14,6 +15,7 @@ pub mod demo;
 pub mod eval;
 pub mod exit;
 pub mod lut;
+pub mod pack;
 pub mod plot;
 pub mod run;
 pub mod sim;

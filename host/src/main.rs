@@ -27,6 +27,8 @@ enum Command {
     Lut(imade_host::lut::LutArgs),
     /// Render a deterministic simulated clip (imade-clip/1) with ground truth.
     Simulate(imade_host::sim::SimulateArgs),
+    /// Pack a clip for the firmware under QEMU (imade-pack/1, see firmware-sim/).
+    Pack(imade_host::pack::PackArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -38,6 +40,7 @@ fn main() -> std::process::ExitCode {
         Command::Plot(args) => imade_host::plot::run(&args),
         Command::Lut(args) => imade_host::lut::run(&args),
         Command::Simulate(args) => imade_host::sim::run(&args),
+        Command::Pack(args) => imade_host::pack::run(&args),
     };
     if let Err(error) = &outcome {
         eprintln!("imade: error: {error:#}");

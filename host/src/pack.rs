@@ -1,0 +1,194 @@
+//! `imade pack`: a clip packed for the firmware (imade-pack/1, `firmware-sim/pack`), read exactly
+//! as `imade run` reads it: the same camera, range use, model and table, and per frame row the
+//! same time, range, chip origin and chip samples, or the same `bad_chip` / `bad_row` status.
+
+use crate::clip::{ChipImage, ChipPixels, Clip, FrameRow, load_chip, write_atomically};
+use crate::run::RangeArg;
+use anyhow::{Context, bail};
+use imade_core::{Camera, built_in_model};
+use imade_pack::{ChipFrame, Header, Record, SampleDepth, TableUse, format::le_bytes};
+use std::path::{Path, PathBuf};
+
+/// Arguments of `imade pack`.
+#[derive(Debug, clap::Args)]
+pub struct PackArgs {
+    /// Clip folder (imade-clip/1).
+    pub clip: PathBuf,
+    /// The packed file to write.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// How range measurements are used (as for `imade run`).
+    #[arg(long, value_enum, default_value = "auto")]
+    pub range: RangeArg,
+    /// Silhouette table (as for `imade run`): `bundled` or `none`; the firmware holds only the
+    /// bundled tables, in flash.
+    #[arg(long, default_value = "bundled")]
+    pub lut: String,
+}
+
+/// Why a frame's chip cannot be given to the pipeline (its results row says `bad_chip`).
+#[derive(Debug, thiserror::Error)]
+pub enum ChipProblem {
+    /// The PNG could not be read or is not grayscale.
+    #[error(transparent)]
+    Unreadable(#[from] anyhow::Error),
+    /// The chip's size differs from `clip.json`'s.
+    #[error("{path}: chip is {width}x{height}, clip.json says {expected_width}x{expected_height}")]
+    WrongSize {
+        /// The chip file.
+        path: PathBuf,
+        /// Chip width, px.
+        width: u32,
+        /// Chip height, px.
+        height: u32,
+        /// Width from `clip.json`, px.
+        expected_width: u32,
+        /// Height from `clip.json`, px.
+        expected_height: u32,
+    },
+    /// The chip origin does not fit an i32.
+    #[error("chip origin ({x0}, {y0}) out of range")]
+    OriginOutOfRange {
+        /// Full-frame x of the chip's left column.
+        x0: i64,
+        /// Full-frame y of the chip's top row.
+        y0: i64,
+    },
+    /// The core refuses to view the chip.
+    #[error("{path}: unusable chip: {error:?}")]
+    Refused {
+        /// The chip file.
+        path: PathBuf,
+        /// The core's reason.
+        error: imade_core::ChipError,
+    },
+}
+
+/// Runs `imade pack`.
+pub fn run(args: &PackArgs) -> anyhow::Result<()> {
+    let records = pack_clip(&args.clip, &args.out, args.range, &args.lut)?;
+    eprintln!(
+        "{}: {records} frame rows -> {}",
+        args.clip.display(),
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// Packs the clip in `dir` into `out` (written atomically), with the range use and table choice
+/// of `imade run --range range --lut lut`; returns the number of records.
+pub fn pack_clip(dir: &Path, out: &Path, range: RangeArg, lut: &str) -> anyhow::Result<usize> {
+    let (bytes, records) = pack_bytes(dir, range, lut)?;
+    if let Some(parent) = out.parent() {
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("creating {}", parent.display()))?;
+    }
+    write_atomically(out, &bytes)?;
+    Ok(records)
+}
+
+/// The packed bytes of the clip in `dir`, and the number of records.
+pub fn pack_bytes(dir: &Path, range: RangeArg, lut: &str) -> anyhow::Result<(Vec<u8>, usize)> {
+    let clip = Clip::open(dir)?;
+    let model = built_in_model(&clip.meta.projectile).with_context(|| {
+        format!(
+            "{}: unknown projectile {:?}",
+            dir.join("clip.json").display(),
+            clip.meta.projectile
+        )
+    })?;
+    let c = &clip.meta.camera;
+    let camera = Camera {
+        fx: c.fx as f32,
+        fy: c.fy as f32,
+        cx: c.cx as f32,
+        cy: c.cy as f32,
+    };
+    let records = u32::try_from(clip.frames.len()).context("too many frames")?;
+    let table = match lut {
+        "bundled" | "none" => match crate::lut::table_for(lut, model)? {
+            Some(_) => TableUse::Bundled,
+            None => TableUse::None,
+        },
+        file => {
+            bail!("--lut {file}: the firmware holds only the bundled tables (give bundled or none)")
+        }
+    };
+    let range_use = range.config().range_use;
+    let header = Header::new(camera, range_use, table, &clip.meta.projectile, records)
+        .with_context(|| format!("projectile id {:?}", clip.meta.projectile))?;
+    let mut bytes = header.encode().to_vec();
+    for entry in &clip.frames {
+        let record = match entry {
+            Ok(row) => match chip_frame(&clip, row) {
+                Ok((frame, chip)) => {
+                    bytes.extend_from_slice(&Record::Chip(frame).encode());
+                    match &chip.pixels {
+                        ChipPixels::U8(p) => bytes.extend_from_slice(p),
+                        ChipPixels::U16(p) => bytes.extend(le_bytes(p)),
+                    }
+                    continue;
+                }
+                Err(error) => {
+                    eprintln!("imade: {}: frame {}: {error:#}", dir.display(), row.frame);
+                    Record::BadChip { frame: row.frame }
+                }
+            },
+            Err(error) => {
+                eprintln!("imade: {}: {error}", dir.display());
+                Record::BadRow { frame: error.frame }
+            }
+        };
+        bytes.extend_from_slice(&record.encode());
+    }
+    Ok((bytes, clip.frames.len()))
+}
+
+/// Loads a frame's chip with the checks `imade run` makes before the pipeline sees it.
+fn chip_frame(clip: &Clip, row: &FrameRow) -> Result<(ChipFrame, ChipImage), ChipProblem> {
+    let path = clip.path_of(&row.chip);
+    let chip = load_chip(&path)?;
+    let expected = clip.meta.chip;
+    if (chip.width, chip.height) != (expected.width, expected.height) {
+        return Err(ChipProblem::WrongSize {
+            path,
+            width: chip.width,
+            height: chip.height,
+            expected_width: expected.width,
+            expected_height: expected.height,
+        });
+    }
+    let (x0, y0) = match (i32::try_from(row.chip_x0), i32::try_from(row.chip_y0)) {
+        (Ok(x0), Ok(y0)) => (x0, y0),
+        _ => {
+            return Err(ChipProblem::OriginOutOfRange {
+                x0: row.chip_x0,
+                y0: row.chip_y0,
+            });
+        }
+    };
+    if let Err(error) = chip.view(x0, y0) {
+        return Err(ChipProblem::Refused { path, error });
+    }
+    // The core viewed it, so both sides are at most its largest chip side.
+    let side = |v: u32| {
+        u16::try_from(v).map_err(|_| ChipProblem::Refused {
+            path: path.clone(),
+            error: imade_core::ChipError::TooLarge,
+        })
+    };
+    let frame = ChipFrame {
+        frame: row.frame,
+        time_s: row.time_s,
+        range_m: row.range_m.map(|r| r as f32),
+        x0,
+        y0,
+        width: side(chip.width)?,
+        height: side(chip.height)?,
+        depth: match chip.pixels {
+            ChipPixels::U8(_) => SampleDepth::U8,
+            ChipPixels::U16(_) => SampleDepth::U16,
+        },
+    };
+    Ok((frame, chip))
+}

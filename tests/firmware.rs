@@ -1,0 +1,115 @@
+//! The firmware on an emulated Cortex-M4F (QEMU mps2-an386) gives the host's results, bit for
+//! bit. `fixtures/small-known-range` is packed by the host library and run through
+//! `firmware-sim/run` (which installs and builds what is missing, see docs/firmware.md), then
+//! compared with two independent host runs:
+//!
+//! - `imade run` (its library) on the clip folder, with the bundled silhouette table: the results
+//!   CSVs must be byte-identical (same status and the same printed pose in every row);
+//! - the host's pipeline replaying the same packed bytes: every frame's whole result, floats at
+//!   full precision (shortest round-trip `Debug` form), must be identical, i.e. tolerance zero.
+//!
+//! It also checks that `report.json` holds the five figures.
+
+use anyhow::{Context, anyhow, ensure};
+use imade_core::Pipeline;
+use imade_host::lut::table_for;
+use imade_host::pack::pack_clip;
+use imade_host::run::{RangeArg, RunArgs, run};
+use imade_pack::{TableUse, read_header, read_record, replay};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The repository's root.
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+#[test]
+fn firmware_results_equal_the_hosts() -> anyhow::Result<()> {
+    let clip = root().join("fixtures/small-known-range");
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("firmware-small-known-range");
+    if dir.exists() {
+        std::fs::remove_dir_all(&dir)?;
+    }
+    let host_dir = dir.join("host");
+    run(&RunArgs {
+        clips: vec![clip.clone()],
+        out: host_dir.clone(),
+        range: RangeArg::Auto,
+        save_masks: false,
+        lut: "bundled".into(),
+    })?;
+    let host_csv = host_dir.join("results.csv");
+    let packed = dir.join("clip.pack");
+    pack_clip(&clip, &packed, RangeArg::Auto, "bundled")?;
+
+    let out = dir.join("firmware");
+    let status = Command::new(root().join("firmware-sim/run"))
+        .arg(&packed)
+        .arg("--out")
+        .arg(&out)
+        .status()
+        .context("starting firmware-sim/run")?;
+    ensure!(status.success(), "firmware-sim/run failed: {status}");
+
+    let host = std::fs::read_to_string(&host_csv)?;
+    let firmware = std::fs::read_to_string(out.join("results.csv"))?;
+    assert_same_lines(&host, &firmware, "results.csv");
+    assert_eq!(host.lines().count(), 21, "a header and 20 frame rows");
+    let poses = host.lines().filter(|l| l.contains(",ok,")).count();
+    assert!(
+        poses >= 10,
+        "the comparison should cover poses, not only failures: {poses} ok rows"
+    );
+
+    let expected = host_outcomes(&std::fs::read(&packed)?)?.join("\n");
+    let outcomes = std::fs::read_to_string(out.join("outcomes.txt"))?;
+    assert_same_lines(&expected, &outcomes, "outcomes.txt");
+
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json"))?)?;
+    for key in [
+        "flash_bytes",
+        "static_ram_bytes",
+        "stack_peak_bytes",
+        "instructions_per_frame_median",
+        "instructions_per_frame_max",
+    ] {
+        let value = report[key].as_u64().unwrap_or(0);
+        assert!(value > 0, "report.json: {key} is {}", report[key]);
+    }
+    Ok(())
+}
+
+/// Every frame's outcome in `Debug` form, from the host's pipeline replaying the packed clip.
+fn host_outcomes(mut packed: &[u8]) -> anyhow::Result<Vec<String>> {
+    let header = read_header(&mut packed).map_err(|e| anyhow!("{e:?}"))?;
+    ensure!(
+        header.table == TableUse::Bundled,
+        "the clip should use its bundled table"
+    );
+    let model = header.model().context("unknown projectile")?;
+    let table = table_for("bundled", model)?.context("no bundled table")?;
+    let mut pipeline: Box<Pipeline> =
+        Box::new(Pipeline::new(header.config(), header.camera, *model).with_table(table));
+    let mut chip = vec![0u16; imade_core::capacity::MAX_CHIP_PIXELS];
+    (0..header.records)
+        .map(|_| {
+            let record = read_record(&mut packed, &mut chip).map_err(|e| anyhow!("{e:?}"))?;
+            let outcome = replay(&record, &chip, |frame| pipeline.process(frame));
+            Ok(format!("{outcome:?}"))
+        })
+        .collect()
+}
+
+/// Asserts line by line that `got` equals `expected`, naming the first differing line.
+fn assert_same_lines(expected: &str, got: &str, what: &str) {
+    for (i, (e, g)) in expected.lines().zip(got.lines()).enumerate() {
+        assert_eq!(g, e, "{what}: line {} differs (firmware, host)", i + 1);
+    }
+    assert_eq!(
+        got.lines().count(),
+        expected.lines().count(),
+        "{what}: line counts differ"
+    );
+}
