@@ -87,6 +87,42 @@ pub struct FrameResult {
 }
 
 impl FrameResult {
+    /// True when every number of the result is finite: pose, mirrored candidate, measurements
+    /// and table match.
+    pub fn is_finite(&self) -> bool {
+        let p = &self.pose;
+        let pose = [p.tx_m, p.ty_m, p.tz_m, p.pitch_deg, p.yaw_deg];
+        let other = [self.pitch_alt_deg, self.yaw_alt_deg, self.image_range_m];
+        let silhouette = self.silhouette.map_or([0.0; 10], |s| {
+            [
+                s.axis.centre.0,
+                s.axis.centre.1,
+                s.axis.dir.0,
+                s.axis.dir.1,
+                s.nose_t,
+                s.tail_t,
+                s.diameter_px,
+                s.contrast,
+                s.sigma_px,
+                s.nose_evidence,
+            ]
+        });
+        let matched = self.matched.map_or([0.0; 6], |m| {
+            [
+                m.tilt_deg,
+                m.roll_deg,
+                m.roll_confidence,
+                m.px_per_d,
+                m.origin_t,
+                m.rms_px,
+            ]
+        });
+        let roll = [self.roll_deg.unwrap_or(0.0)];
+        [&pose[..], &other, &silhouette, &matched, &roll]
+            .iter()
+            .all(|values| values.iter().all(|v| v.is_finite()))
+    }
+
     /// A result with only a status.
     pub const fn failed(status: Status) -> Self {
         FrameResult {
@@ -285,9 +321,17 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABE
         };
         let choice = self.temporal.choose_yaw(&self.config);
         self.refined = refined;
-        FrameResult {
+        let result = FrameResult {
             matched: refined.map(|r| r.matched),
             ..self.result(&solution, &silhouette, choice, range.is_some(), image_range)
+        };
+        // Finite but extreme intrinsics or ranges can overflow the geometry (found by fuzzing).
+        if result.is_finite() {
+            result
+        } else {
+            self.prior.clear();
+            self.refined = None;
+            FrameResult::failed(Status::Unmeasurable)
         }
     }
 

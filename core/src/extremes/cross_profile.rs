@@ -148,9 +148,10 @@ pub fn fit_binned(binned: &Binned) -> Option<CrossSection> {
     let point = |i: usize| binned.point(i);
     let mut p = initial_guess(&point, half_width)?;
     let mut lambda = 1e-2f32;
-    let mut cost = cost_of(&point, &p);
+    // The cost and normal equations at `p`, carried over from an accepted trial.
+    let mut at_p = evaluate(&point, &p);
     for _ in 0..30 {
-        let (jtj, jtr) = normal_equations(&point, &p);
+        let (cost, jtj, jtr) = at_p;
         let mut damped = jtj;
         for k in 0..6 {
             damped[(k, k)] += lambda * jtj[(k, k)].max(1e-9);
@@ -162,11 +163,12 @@ pub fn fit_binned(binned: &Binned) -> Option<CrossSection> {
         let mut trial = p + step;
         trial[4] = trial[4].max(0.2); // diameter
         trial[5] = trial[5].clamp(0.2, half_width); // blur
-        let trial_cost = cost_of(&point, &trial);
+        let at_trial = evaluate(&point, &trial);
+        let trial_cost = at_trial.0;
         if trial_cost.is_finite() && trial_cost <= cost {
             let converged = (cost - trial_cost) <= 1e-7 * cost.max(1e-12);
             p = trial;
-            cost = trial_cost;
+            at_p = at_trial;
             lambda = (lambda * 0.3).max(1e-7);
             if converged {
                 break;
@@ -245,28 +247,23 @@ fn model(s: f32, p: &Params) -> (f32, Params) {
     (value, gradient)
 }
 
-fn cost_of(point: &impl Fn(usize) -> Option<(f32, f32, f32)>, p: &Params) -> f32 {
-    (0..CROSS_BINS)
-        .filter_map(point)
-        .map(|(s, v, w)| {
-            let r = v - model(s, p).0;
-            w * r * r
-        })
-        .sum()
-}
-
-fn normal_equations(
+/// The weighted squared residual and the normal equations (`JᵀWJ`, `JᵀWr`) at `p`, from one
+/// evaluation of the model per point (its erf and exp dominate the fit's time).
+fn evaluate(
     point: &impl Fn(usize) -> Option<(f32, f32, f32)>,
     p: &Params,
-) -> (SMatrix<f32, 6, 6>, Params) {
+) -> (f32, SMatrix<f32, 6, 6>, Params) {
+    let mut cost = 0.0f32;
     let mut jtj = SMatrix::<f32, 6, 6>::zeros();
     let mut jtr = Params::zeros();
     for (s, v, w) in (0..CROSS_BINS).filter_map(point) {
         let (value, g) = model(s, p);
+        let r = v - value;
+        cost += w * r * r;
         jtj += g * g.transpose() * w;
-        jtr += g * (w * (v - value));
+        jtr += g * (w * r);
     }
-    (jtj, jtr)
+    (cost, jtj, jtr)
 }
 
 /// Standard normal cumulative distribution.

@@ -6,7 +6,7 @@
 //! than a tile. The noise is the robust standard deviation of horizontal neighbour differences,
 //! which background gradients do not inflate.
 
-use crate::capacity::{BACKGROUND_TILE, MAX_TILES_PER_SIDE, NOISE_SAMPLES};
+use crate::capacity::{BACKGROUND_TILE, MAX_CHIP_SIDE, MAX_TILES_PER_SIDE, NOISE_SAMPLES};
 use crate::chip::ChipView;
 
 /// Smallest noise standard deviation reported, grey levels (the quantization floor).
@@ -20,8 +20,71 @@ pub struct Background {
     tiles_x: usize,
     tiles_y: usize,
     levels: [f32; MAX_TILES_PER_SIDE * MAX_TILES_PER_SIDE],
+    columns: AxisTable,
+    rows: AxisTable,
     sigma: f32,
     samples: [f32; NOISE_SAMPLES],
+}
+
+/// The interpolation along one axis at every pixel of the chip, tabulated once per chip so that
+/// the per-pixel background costs two lookups: `t0[p]`, `t1[p]` and `w[p]` are
+/// [`axis_weights`] at pixel `p`.
+#[derive(Clone)]
+struct AxisTable {
+    t0: [u8; MAX_CHIP_SIDE],
+    t1: [u8; MAX_CHIP_SIDE],
+    w: [f32; MAX_CHIP_SIDE],
+    len: usize,
+}
+
+// Tile indices are stored as u8.
+const _: () = assert!(MAX_TILES_PER_SIDE <= 256);
+
+impl AxisTable {
+    const fn new() -> Self {
+        AxisTable {
+            t0: [0; MAX_CHIP_SIDE],
+            t1: [0; MAX_CHIP_SIDE],
+            w: [0.0; MAX_CHIP_SIDE],
+            len: 0,
+        }
+    }
+
+    /// Tabulates [`axis_weights`] for the pixels of an axis of `size` px and `tiles` tiles.
+    fn fill(&mut self, tiles: usize, size: usize) {
+        self.len = size.min(MAX_CHIP_SIDE);
+        for p in 0..self.len {
+            let (t0, t1, w) = axis_weights(p as f32, tiles, size);
+            if let (Some(a), Some(b), Some(c)) =
+                (self.t0.get_mut(p), self.t1.get_mut(p), self.w.get_mut(p))
+            {
+                (*a, *b, *c) = (t0 as u8, t1 as u8, w);
+            }
+        }
+    }
+
+    /// The weights at pixel `p`, when the table has it.
+    #[inline]
+    fn get(&self, p: usize) -> Option<(usize, usize, f32)> {
+        if p >= self.len {
+            return None;
+        }
+        Some((
+            usize::from(*self.t0.get(p)?),
+            usize::from(*self.t1.get(p)?),
+            *self.w.get(p)?,
+        ))
+    }
+
+    /// The weights at position `p`, px: from the table at a pixel, else computed.
+    #[inline]
+    fn weights(&self, p: f32, tiles: usize, size: usize) -> (usize, usize, f32) {
+        let pixel = p as usize;
+        (pixel as f32 == p)
+            .then(|| self.get(pixel))
+            .flatten()
+            .unwrap_or_else(|| axis_weights(p, tiles, size))
+    }
 }
 
 impl Default for Background {
@@ -39,6 +102,8 @@ impl Background {
             tiles_x: 0,
             tiles_y: 0,
             levels: [0.0; MAX_TILES_PER_SIDE * MAX_TILES_PER_SIDE],
+            columns: AxisTable::new(),
+            rows: AxisTable::new(),
             sigma: MIN_SIGMA,
             samples: [0.0; NOISE_SAMPLES],
         }
@@ -53,6 +118,8 @@ impl Background {
             .height
             .div_ceil(BACKGROUND_TILE)
             .min(MAX_TILES_PER_SIDE);
+        self.columns.fill(self.tiles_x, self.width);
+        self.rows.fill(self.tiles_y, self.height);
         for ty in 0..self.tiles_y {
             for tx in 0..self.tiles_x {
                 let x0 = tx * BACKGROUND_TILE;
@@ -86,8 +153,8 @@ impl Background {
 
     /// Background at chip pixel (x, y), grey levels (bilinear between tile centres).
     pub fn at(&self, x: f32, y: f32) -> f32 {
-        let (x0, x1, wx) = axis_weights(x, self.tiles_x, self.width);
-        let (y0, y1, wy) = axis_weights(y, self.tiles_y, self.height);
+        let (x0, x1, wx) = self.columns.weights(x, self.tiles_x, self.width);
+        let (y0, y1, wy) = self.rows.weights(y, self.tiles_y, self.height);
         let top = self.level(x0, y0) * (1.0 - wx) + self.level(x1, y0) * wx;
         let bottom = self.level(x0, y1) * (1.0 - wx) + self.level(x1, y1) * wx;
         top * (1.0 - wy) + bottom * wy
@@ -95,26 +162,20 @@ impl Background {
 
     /// Writes the background of row `y`, columns `x_start..x_start + out.len()`, into `out`.
     pub fn fill_row(&self, y: usize, x_start: usize, out: &mut [f32]) {
-        let (y0, y1, wy) = axis_weights(y as f32, self.tiles_y, self.height);
-        let column = |tx: usize| self.level(tx, y0) * (1.0 - wy) + self.level(tx, y1) * wy;
-        // Walk the tile-centre segments left to right, interpolating incrementally.
-        let mut segment = (usize::MAX, usize::MAX);
-        let (mut left, mut right, mut c_left, mut span) = (0.0f32, 0.0f32, 0.0f32, 1.0f32);
+        let (y0, y1, wy) = self.rows.weights(y as f32, self.tiles_y, self.height);
+        // The row's level at every tile centre, then linear between neighbouring centres.
+        let mut centres = [0.0f32; MAX_TILES_PER_SIDE];
+        for (tx, c) in centres.iter_mut().enumerate().take(self.tiles_x) {
+            *c = self.level(tx, y0) * (1.0 - wy) + self.level(tx, y1) * wy;
+        }
         for (i, slot) in out.iter_mut().enumerate() {
-            let x = (x_start + i) as f32;
-            let (t0, t1, _) = axis_weights(x, self.tiles_x, self.width);
-            if (t0, t1) != segment {
-                segment = (t0, t1);
-                left = column(t0);
-                right = column(t1);
-                c_left = tile_centre(t0, self.width);
-                span = (tile_centre(t1, self.width) - c_left).max(1.0);
-            }
-            let w = if t0 == t1 {
-                0.0
-            } else {
-                ((x - c_left) / span).clamp(0.0, 1.0)
-            };
+            let x = x_start + i;
+            let (t0, t1, w) = self
+                .columns
+                .get(x)
+                .unwrap_or_else(|| axis_weights(x as f32, self.tiles_x, self.width));
+            let left = centres.get(t0).copied().unwrap_or(0.0);
+            let right = centres.get(t1).copied().unwrap_or(0.0);
             *slot = left + (right - left) * w;
         }
     }
@@ -283,6 +344,43 @@ mod tests {
             "a noiseless gradient has little noise: {}",
             bg.sigma()
         );
+    }
+
+    /// The per-pixel tables are a cache: the background they give is bit for bit the direct
+    /// interpolation between tile centres, at pixels and between them, in rows and points.
+    #[test]
+    fn tabulated_interpolation_is_the_direct_one() {
+        let mut data = [0u8; 300 * 300];
+        for (i, v) in data.iter_mut().enumerate() {
+            *v = ((i * 7919) % 251) as u8 / 4 + (i / 300 / 9) as u8;
+        }
+        for (w, h) in [(1, 1), (5, 300), (32, 33), (100, 65), (256, 256), (300, 97)] {
+            let chip = ChipView::gray8(&data, w, h, 300, 0, 0).unwrap();
+            let mut bg = Background::new();
+            bg.estimate(&chip);
+            let column = |t: usize, y0: usize, y1: usize, wy: f32| {
+                bg.level(t, y0) * (1.0 - wy) + bg.level(t, y1) * wy
+            };
+            let mut row = [0.0f32; 300];
+            for y in 0..h {
+                let (y0, y1, wy) = axis_weights(y as f32, bg.tiles_y, bg.height);
+                bg.fill_row(y, 0, &mut row[..w]);
+                for (x, value) in row[..w].iter().enumerate() {
+                    let (x0, x1, wx) = axis_weights(x as f32, bg.tiles_x, bg.width);
+                    let (left, right) = (column(x0, y0, y1, wy), column(x1, y0, y1, wy));
+                    let direct_row = left + (right - left) * wx;
+                    assert_eq!(value.to_bits(), direct_row.to_bits(), "row at ({x},{y})");
+                    for dx in [0.0f32, 0.25, 0.5] {
+                        let xf = x as f32 + dx;
+                        let (x0, x1, wx) = axis_weights(xf, bg.tiles_x, bg.width);
+                        let top = bg.level(x0, y0) * (1.0 - wx) + bg.level(x1, y0) * wx;
+                        let bottom = bg.level(x0, y1) * (1.0 - wx) + bg.level(x1, y1) * wx;
+                        let direct = top * (1.0 - wy) + bottom * wy;
+                        assert_eq!(bg.at(xf, y as f32).to_bits(), direct.to_bits());
+                    }
+                }
+            }
+        }
     }
 
     #[test]
