@@ -1,0 +1,220 @@
+//! Time per 256 x 256 fixture chip of each core stage and of the whole frame (with the closed
+//! form only, and with the table match of the bundled silhouette table), cycling through
+//! the bundled `table1-test` clip (175 frames; `IMADE_BENCH_CLIP` names another clip). Times are
+//! the benchmark thread's CPU time ([`common::cpu`]), one core.
+//!
+//! `cargo bench -p imade-core --bench stages`; `core/benches/compare-opencv` runs it beside
+//! OpenCV's naive pipeline and prints the ratios.
+
+mod common;
+
+use common::cpu::ThreadCpuTime;
+use common::{Fixture, Frame};
+use criterion::{Criterion, criterion_group, criterion_main};
+use imade_core::closed_form::{self, ClosedForm};
+use imade_core::extremes::{self, Silhouette};
+use imade_core::lut;
+use imade_core::mask::ChipMask;
+use imade_core::segment::background::Background;
+use imade_core::segment::label::{Labeler, Rect};
+use imade_core::segment::{Segmenter, Target};
+use imade_core::{Config, Pipeline};
+use std::hint::black_box;
+use std::time::Duration;
+
+/// One frame's intermediate results, computed once outside the timed loops.
+struct Prepared<'a> {
+    frame: &'a Frame,
+    background: Background,
+    target: Target,
+    silhouette: Silhouette,
+    range_m: f32,
+    closed: ClosedForm,
+}
+
+fn prepare(fixture: &Fixture) -> Vec<Prepared<'_>> {
+    let config = Config::DEFAULT;
+    let mut segmenter: Box<Segmenter> = Box::default();
+    let mut mask: Box<ChipMask> = Box::default();
+    fixture
+        .frames
+        .iter()
+        .filter_map(|frame| {
+            let chip = frame.view();
+            let aim = (0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
+            let target = segmenter.detect(&chip, &config, aim, &mut mask).ok()?;
+            let background = segmenter.background().clone();
+            let silhouette =
+                extremes::measure(&chip, &background, &target, &fixture.model, None).ok()?;
+            let range_m = frame.range_m.or_else(|| {
+                closed_form::range_from_diameter(&silhouette, &fixture.camera, &fixture.model)
+            })?;
+            let closed = closed_form::solve(
+                &silhouette,
+                frame.origin,
+                &fixture.camera,
+                &fixture.model,
+                range_m,
+            );
+            Some(Prepared {
+                frame,
+                background,
+                target,
+                silhouette,
+                range_m,
+                closed,
+            })
+        })
+        .collect()
+}
+
+/// Cycles through `items`, one per call.
+fn cycle<'a, T>(items: &'a [T]) -> impl FnMut() -> &'a T + 'a {
+    let mut i = 0;
+    move || {
+        let item = &items[i % items.len()];
+        i += 1;
+        item
+    }
+}
+
+fn stages(c: &mut Criterion<ThreadCpuTime>) {
+    let fixture = common::load();
+    let prepared = prepare(&fixture);
+    eprintln!(
+        "stages: {} frames from {}, {} measured",
+        fixture.frames.len(),
+        common::clip_dir().display(),
+        prepared.len()
+    );
+    assert!(
+        prepared.len() * 10 >= fixture.frames.len() * 9,
+        "most fixture frames measure: {} of {}",
+        prepared.len(),
+        fixture.frames.len()
+    );
+    let config = Config::DEFAULT;
+    let mut group = c.benchmark_group("stages");
+
+    group.bench_function("background", |b| {
+        let mut next = cycle(&fixture.frames);
+        let mut background: Box<Background> = Box::default();
+        b.iter(|| background.estimate(&black_box(next().view())));
+    });
+
+    group.bench_function("label", |b| {
+        let mut next = cycle(&prepared);
+        let mut labeler: Box<Labeler<4096, 512>> = Box::default();
+        b.iter(|| {
+            let p = next();
+            let chip = p.frame.view();
+            let threshold = config.detect_sigma * p.background.sigma();
+            let whole = Rect {
+                x0: 0,
+                y0: 0,
+                x1: chip.width() as u16,
+                y1: chip.height() as u16,
+            };
+            let labelled = labeler.label(&black_box(chip), &p.background, whole, |r| {
+                i8::from(r > threshold) - i8::from(r < -threshold)
+            });
+            black_box(labelled.map(|()| labeler.runs().len()))
+        });
+    });
+
+    group.bench_function("detect", |b| {
+        let mut next = cycle(&fixture.frames);
+        let mut segmenter: Box<Segmenter> = Box::default();
+        let mut mask: Box<ChipMask> = Box::default();
+        b.iter(|| {
+            let chip = next().view();
+            let aim = (0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
+            black_box(segmenter.detect(&black_box(chip), &config, aim, &mut mask)).is_ok()
+        });
+    });
+
+    group.bench_function("extremes", |b| {
+        let mut next = cycle(&prepared);
+        b.iter(|| {
+            let p = next();
+            black_box(extremes::measure(
+                &black_box(p.frame.view()),
+                &p.background,
+                &p.target,
+                &fixture.model,
+                None,
+            ))
+        });
+    });
+
+    group.bench_function("closed_form", |b| {
+        let mut next = cycle(&prepared);
+        b.iter(|| {
+            let p = next();
+            let silhouette = black_box(&p.silhouette);
+            let measured =
+                closed_form::range_from_diameter(silhouette, &fixture.camera, &fixture.model);
+            black_box(measured);
+            black_box(closed_form::solve(
+                silhouette,
+                p.frame.origin,
+                &fixture.camera,
+                &fixture.model,
+                p.range_m,
+            ))
+        });
+    });
+
+    if let Some(table) = fixture.table {
+        group.bench_function("table_match", |b| {
+            let mut next = cycle(&prepared);
+            b.iter(|| {
+                let p = next();
+                let chip = black_box(p.frame.view());
+                let frame = lut::Frame {
+                    chip: &chip,
+                    background: &p.background,
+                    silhouette: &p.silhouette,
+                    class: p.target.class,
+                    origin: p.frame.origin,
+                };
+                let (camera, model) = (&fixture.camera, &fixture.model);
+                black_box(lut::refine(
+                    &frame,
+                    &table,
+                    model,
+                    camera,
+                    &p.closed,
+                    p.frame.range_m,
+                ))
+            });
+        });
+    }
+
+    // The whole frame with the closed form only, and with the table match where there is a table.
+    let mut pipelines = vec![("frame", None)];
+    pipelines.extend(fixture.table.map(|t| ("frame_table", Some(t))));
+    for (name, table) in pipelines {
+        group.bench_function(name, |b| {
+            let mut next = cycle(&fixture.frames);
+            let pipeline = Pipeline::new(config, fixture.camera, fixture.model);
+            let mut pipeline: Box<Pipeline> = Box::new(match table {
+                Some(t) => pipeline.with_table(t),
+                None => pipeline,
+            });
+            b.iter(|| black_box(pipeline.process(&black_box(next().input()))));
+        });
+    }
+
+    group.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default()
+        .with_measurement(ThreadCpuTime::default())
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(4));
+    targets = stages
+}
+criterion_main!(benches);
