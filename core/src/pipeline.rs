@@ -344,6 +344,14 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABE
             libm::roundf(refined.view.tilt_deg / tilt_step) as usize,
             libm::roundf(refined.view.roll_deg / roll_step) as usize,
         );
+        // A silhouette more than twice the chip's size is no prior for it, and embedded-graphics
+        // fills a triangle in time quadratic in its size (a 2 m range drew for 3 s): not drawn.
+        let (lo, hi) = entry.u_range();
+        let side = chip.width().max(chip.height()) as f32;
+        let fits = refined.placement.px_per_unit * (hi - lo).max(1.0) <= 2.0 * side;
+        if !fits {
+            return;
+        }
         if self.prior.reset(chip.width(), chip.height()).is_ok() {
             // The mask is an infallible draw target.
             let _ = render::draw_entry(&mut self.prior, &entry, &refined.placement);
