@@ -1,8 +1,9 @@
 //! Time per frame of the whole pipeline on worst-case chips: uniform, saturated, checkerboards
 //! and noise that maximize components and runs, capacity overflows, the largest chip, the largest
 //! target, a target cut by the chip border and two projectiles in one chip (the last two made
-//! from a fixture chip). Each case's status is printed once; the slowest case bounds the frame
-//! time on the host.
+//! from a fixture chip). The pipeline is `imade run`'s default: with the bundled silhouette
+//! table where there is one. Each case's status is printed once; the slowest case bounds the
+//! frame time on the host.
 //!
 //! `cargo bench -p imade-core --bench worst_cases`
 
@@ -115,6 +116,11 @@ fn cases(fixture: &Fixture) -> Vec<Case> {
             let sky = 30000.0 + 40.0 * gaussian(x, y);
             (if across < 20.0 { sky - 20000.0 } else { sky }) as u16
         }),
+        // A steep 16-bit sky gradient clipped to black over a third of the chip (found by
+        // fuzzing: a false target whose shape prior spans thousands of pixels).
+        Case::u16("gradient16", 256, |x, y| {
+            (61245 - 16 * x as i64 - 160 * y as i64).clamp(0, 65535) as u16
+        }),
         // The fixture's body cut by the left border: the chip moved 128 px left, wrapping.
         Case::u8("border", side, |x, y| at(x + 128, y)),
         // A second projectile: the darker of the chip and itself moved 60 px right, 40 px down.
@@ -129,11 +135,11 @@ fn worst_cases(c: &mut Criterion<ThreadCpuTime>) {
     let cases = cases(&fixture);
     let mut group = c.benchmark_group("worst");
     for case in &cases {
-        let mut pipeline: Box<Pipeline> = Box::new(Pipeline::new(
-            Config::DEFAULT,
-            fixture.camera,
-            fixture.model,
-        ));
+        let pipeline = Pipeline::new(Config::DEFAULT, fixture.camera, fixture.model);
+        let mut pipeline: Box<Pipeline> = Box::new(match fixture.table {
+            Some(table) => pipeline.with_table(table),
+            None => pipeline,
+        });
         let mut time_s = 0.0;
         let mut frame = || {
             time_s += 1.0 / 30.0;

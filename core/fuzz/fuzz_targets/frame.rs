@@ -1,0 +1,209 @@
+//! The core's frame entry point, `Pipeline::process`, over up to four frames of one clip (so the
+//! temporal state is exercised), on synthesized chips of any size, stride and bit depth, with
+//! any intrinsics, ranges, times and configuration, with and without the bundled lookup table,
+//! with the default capacities and with tiny ones. Every result is checked by the oracle.
+#![no_main]
+
+use arbitrary::Arbitrary;
+use imade_core::lut::table::Table;
+use imade_core::mask::ChipMask;
+use imade_core::{BodyPolarity, Camera, Config, FrameInput, Pipeline, REF_1378X80, RangeUse};
+use imade_core_fuzz::{oracle, synth};
+use libfuzzer_sys::fuzz_target;
+use std::sync::OnceLock;
+
+/// Frames per input.
+const MAX_FRAMES: usize = 4;
+
+/// The bundled table of the reference projectile.
+static TABLE_BYTES: &[u8] = include_bytes!("../../../fixtures/lut/ref-1378x80.lut");
+
+#[derive(Arbitrary, Debug)]
+struct Input {
+    camera: CameraSpec,
+    config: ConfigSpec,
+    /// Capacities of 64 runs and 16 labels instead of the defaults.
+    small: bool,
+    /// Refine against the bundled table.
+    table: bool,
+    frames: Vec<FrameSpec>,
+}
+
+#[derive(Arbitrary, Debug)]
+enum CameraSpec {
+    /// The fixtures' camera.
+    Nominal,
+    /// Focal length and principal point from small numbers.
+    Scaled { focal: u16, cx: i16, cy: i16 },
+    /// Any floats, NaN and infinities included.
+    Raw { fx: f32, fy: f32, cx: f32, cy: f32 },
+}
+
+#[derive(Arbitrary, Debug)]
+enum ConfigSpec {
+    /// The defaults with a polarity and range use.
+    Nominal { polarity: u8, ignore_range: bool },
+    /// Every field from the input.
+    Raw {
+        detect_sigma: f32,
+        min_area_px: u32,
+        polarity: u8,
+        mask_level: f32,
+        mask_min_sigma: f32,
+        tz_smoothing_r: f32,
+        window_frames: u8,
+        min_trend_frames: u8,
+        trend_sigma: f32,
+        max_gap_s: f32,
+        ignore_range: bool,
+    },
+}
+
+#[derive(Arbitrary, Debug)]
+struct FrameSpec {
+    /// Forget the temporal state first (a new clip).
+    reset: bool,
+    chip: synth::ChipSpec,
+    origin: (i32, i32),
+    time: TimeSpec,
+    range: Option<RangeSpec>,
+}
+
+#[derive(Arbitrary, Debug)]
+enum TimeSpec {
+    /// Milliseconds after the previous frame.
+    Step(u16),
+    /// Any time, NaN included.
+    Raw(f64),
+}
+
+#[derive(Arbitrary, Debug)]
+enum RangeSpec {
+    Metres(u16),
+    Raw(f32),
+}
+
+fn polarity(p: u8) -> BodyPolarity {
+    [BodyPolarity::Dark, BodyPolarity::Bright, BodyPolarity::Auto][usize::from(p % 3)]
+}
+
+fn range_use(ignore: bool) -> RangeUse {
+    if ignore {
+        RangeUse::Ignore
+    } else {
+        RangeUse::Auto
+    }
+}
+
+fn camera(spec: &CameraSpec) -> Camera {
+    match *spec {
+        CameraSpec::Nominal => Camera {
+            fx: 100000.0,
+            fy: 100000.0,
+            cx: 1023.5,
+            cy: 1023.5,
+        },
+        CameraSpec::Scaled { focal, cx, cy } => Camera {
+            fx: f32::from(focal) * 4.0,
+            fy: f32::from(focal) * 4.0,
+            cx: f32::from(cx),
+            cy: f32::from(cy),
+        },
+        CameraSpec::Raw { fx, fy, cx, cy } => Camera { fx, fy, cx, cy },
+    }
+}
+
+fn config(spec: &ConfigSpec) -> Config {
+    match *spec {
+        ConfigSpec::Nominal {
+            polarity: p,
+            ignore_range,
+        } => Config {
+            polarity: polarity(p),
+            range_use: range_use(ignore_range),
+            ..Config::DEFAULT
+        },
+        ConfigSpec::Raw {
+            detect_sigma,
+            min_area_px,
+            polarity: p,
+            mask_level,
+            mask_min_sigma,
+            tz_smoothing_r,
+            window_frames,
+            min_trend_frames,
+            trend_sigma,
+            max_gap_s,
+            ignore_range,
+        } => Config {
+            detect_sigma,
+            min_area_px,
+            polarity: polarity(p),
+            mask_level,
+            mask_min_sigma,
+            tz_smoothing_r,
+            window_frames: usize::from(window_frames),
+            min_trend_frames: usize::from(min_trend_frames),
+            trend_sigma,
+            max_gap_s,
+            range_use: range_use(ignore_range),
+        },
+    }
+}
+
+fn table() -> Table<'static> {
+    static TABLE: OnceLock<Table<'static>> = OnceLock::new();
+    *TABLE.get_or_init(|| {
+        Table::parse_for(TABLE_BYTES, &REF_1378X80).expect("the bundled table is valid")
+    })
+}
+
+fn with_table<const R: usize, const L: usize>(
+    pipeline: Pipeline<R, L>,
+    table: Option<Table<'static>>,
+) -> Pipeline<R, L> {
+    match table {
+        Some(t) => pipeline.with_table(t),
+        None => pipeline,
+    }
+}
+
+fn run<const R: usize, const L: usize>(mut pipeline: Box<Pipeline<R, L>>, input: &Input) {
+    let mut scratch = Box::new(ChipMask::new());
+    let mut time_s = 0.0f64;
+    for frame in input.frames.iter().take(MAX_FRAMES) {
+        let chip = synth::synthesize(&frame.chip, &mut scratch);
+        let Ok(view) = chip.view(frame.origin) else {
+            continue;
+        };
+        if frame.reset {
+            pipeline.reset();
+        }
+        time_s = match frame.time {
+            TimeSpec::Step(ms) => time_s + f64::from(ms) / 1000.0,
+            TimeSpec::Raw(t) => t,
+        };
+        let range_m = frame.range.as_ref().map(|r| match *r {
+            RangeSpec::Metres(m) => f32::from(m),
+            RangeSpec::Raw(r) => r,
+        });
+        let result = pipeline.process(&FrameInput {
+            chip: view,
+            time_s,
+            range_m,
+        });
+        oracle::check(&pipeline, &view, &result);
+    }
+}
+
+fuzz_target!(|input: Input| {
+    let (camera, config) = (camera(&input.camera), config(&input.config));
+    let table = input.table.then(table);
+    if input.small {
+        let p = Pipeline::<64, 16>::new(config, camera, REF_1378X80);
+        run(Box::new(with_table(p, table)), &input);
+    } else {
+        let p: Pipeline = Pipeline::new(config, camera, REF_1378X80);
+        run(Box::new(with_table(p, table)), &input);
+    }
+});
