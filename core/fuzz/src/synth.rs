@@ -214,27 +214,20 @@ pub fn synthesize(spec: &ChipSpec, scratch: &mut ChipMask) -> Chip {
     if spec.cut == 0x5A {
         len = len.saturating_sub(1);
     }
-    // Row-major, the padding at the sky level, cut to `len` samples.
-    let values = (0..height).flat_map(|y| {
-        let row = image.get(y * width..(y + 1) * width).unwrap_or(&[]);
-        let padding = std::iter::repeat_n(sky, stride - width);
-        row.iter().copied().chain(padding)
-    });
+    // Row-major, the padding at the sky level, cut to `len` samples; then the raw bytes.
     let raw_at = spec.raw.at as usize % len.max(1);
     let samples = if spec.wide {
-        let mut s: Vec<u16> = values
-            .take(len)
-            .map(|v| v.clamp(0.0, 65535.0) as u16)
-            .collect();
+        let mut s = pack(&image, (width, height, stride), sky, len, |v| {
+            v.clamp(0.0, 65535.0) as u16
+        });
         for (slot, b) in s.iter_mut().skip(raw_at).zip(&spec.raw.bytes) {
             *slot = u16::from_le_bytes([*b, *b]);
         }
         Samples::U16(s)
     } else {
-        let mut s: Vec<u8> = values
-            .take(len)
-            .map(|v| v.clamp(0.0, 255.0) as u8)
-            .collect();
+        let mut s = pack(&image, (width, height, stride), sky, len, |v| {
+            v.clamp(0.0, 255.0) as u8
+        });
         for (slot, b) in s.iter_mut().skip(raw_at).zip(&spec.raw.bytes) {
             *slot = *b;
         }
@@ -297,19 +290,39 @@ fn draw_projectile(
     }
 }
 
-/// A 3 x 3 box blur (the mean of the neighbours inside the chip).
+/// The samples of `image` (`width` x `height`) in rows of `stride`, the padding at `pad`, the
+/// first `len` of them, converted by `convert`.
+fn pack<T: Copy>(
+    image: &[f32],
+    (width, height, stride): (usize, usize, usize),
+    pad: f32,
+    len: usize,
+    convert: impl Fn(f32) -> T,
+) -> Vec<T> {
+    let mut samples = Vec::with_capacity(stride * height);
+    for row in image.chunks_exact(width.max(1)).take(height) {
+        samples.extend(row.iter().map(|&v| convert(v)));
+        samples.extend(std::iter::repeat_n(convert(pad), stride - width));
+    }
+    samples.truncate(len);
+    samples.resize(len, convert(pad));
+    samples
+}
+
+/// A 3 x 3 box blur: the mean of the neighbours inside the chip, a row pass then a column pass.
 fn box_blur(image: &mut [f32], width: usize, height: usize) {
-    let source = image.to_vec();
+    let mut rows = image.to_vec();
+    for (row, out) in image.chunks_exact(width).zip(rows.chunks_exact_mut(width)) {
+        for (x, v) in out.iter_mut().enumerate() {
+            let window = &row[x.saturating_sub(1)..(x + 2).min(width)];
+            *v = window.iter().sum::<f32>() / window.len() as f32;
+        }
+    }
     for y in 0..height {
+        let (lo, hi) = (y.saturating_sub(1), (y + 2).min(height));
         for x in 0..width {
-            let (mut sum, mut n) = (0.0, 0.0);
-            for sy in y.saturating_sub(1)..=(y + 1).min(height - 1) {
-                for sx in x.saturating_sub(1)..=(x + 1).min(width - 1) {
-                    sum += source[sy * width + sx];
-                    n += 1.0;
-                }
-            }
-            image[y * width + x] = sum / n;
+            let sum: f32 = (lo..hi).map(|sy| rows[sy * width + x]).sum();
+            image[y * width + x] = sum / (hi - lo) as f32;
         }
     }
 }
