@@ -325,8 +325,9 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABE
             matched: refined.map(|r| r.matched),
             ..self.result(&solution, &silhouette, choice, range.is_some(), image_range)
         };
-        // Finite but extreme intrinsics or ranges can overflow the geometry (found by fuzzing).
-        if result.is_finite() {
+        // Finite but extreme intrinsics or ranges can overflow the geometry, or underflow the
+        // depth to the camera's plane (found by fuzzing).
+        if result.is_finite() && result.pose.tz_m > 0.0 {
             result
         } else {
             self.prior.clear();
