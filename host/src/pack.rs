@@ -2,10 +2,9 @@
 //! as `imade run` reads it: the same camera, range use, model and table, and per frame row the
 //! same time, range, chip origin and chip samples, or the same `bad_chip` / `bad_row` status.
 
-use crate::clip::{ChipImage, ChipPixels, Clip, FrameRow, load_chip, write_atomically};
+use crate::clip::{ChipImage, ChipPixels, Clip, FrameChipError, FrameRow, write_atomically};
 use crate::run::RangeArg;
 use anyhow::{Context, bail};
-use imade_core::{Camera, built_in_model};
 use imade_pack::{ChipFrame, Header, Record, SampleDepth, TableUse, format::le_bytes};
 use std::path::{Path, PathBuf};
 
@@ -24,44 +23,6 @@ pub struct PackArgs {
     /// bundled tables, in flash.
     #[arg(long, default_value = "bundled")]
     pub lut: String,
-}
-
-/// Why a frame's chip cannot be given to the pipeline (its results row says `bad_chip`).
-#[derive(Debug, thiserror::Error)]
-pub enum ChipProblem {
-    /// The PNG could not be read or is not grayscale.
-    #[error(transparent)]
-    Unreadable(#[from] anyhow::Error),
-    /// The chip's size differs from `clip.json`'s.
-    #[error("{path}: chip is {width}x{height}, clip.json says {expected_width}x{expected_height}")]
-    WrongSize {
-        /// The chip file.
-        path: PathBuf,
-        /// Chip width, px.
-        width: u32,
-        /// Chip height, px.
-        height: u32,
-        /// Width from `clip.json`, px.
-        expected_width: u32,
-        /// Height from `clip.json`, px.
-        expected_height: u32,
-    },
-    /// The chip origin does not fit an i32.
-    #[error("chip origin ({x0}, {y0}) out of range")]
-    OriginOutOfRange {
-        /// Full-frame x of the chip's left column.
-        x0: i64,
-        /// Full-frame y of the chip's top row.
-        y0: i64,
-    },
-    /// The core refuses to view the chip.
-    #[error("{path}: unusable chip: {error:?}")]
-    Refused {
-        /// The chip file.
-        path: PathBuf,
-        /// The core's reason.
-        error: imade_core::ChipError,
-    },
 }
 
 /// Runs `imade pack`.
@@ -90,20 +51,8 @@ pub fn pack_clip(dir: &Path, out: &Path, range: RangeArg, lut: &str) -> anyhow::
 /// The packed bytes of the clip in `dir`, and the number of records.
 pub fn pack_bytes(dir: &Path, range: RangeArg, lut: &str) -> anyhow::Result<(Vec<u8>, usize)> {
     let clip = Clip::open(dir)?;
-    let model = built_in_model(&clip.meta.projectile).with_context(|| {
-        format!(
-            "{}: unknown projectile {:?}",
-            dir.join("clip.json").display(),
-            clip.meta.projectile
-        )
-    })?;
-    let c = &clip.meta.camera;
-    let camera = Camera {
-        fx: c.fx as f32,
-        fy: c.fy as f32,
-        cx: c.cx as f32,
-        cy: c.cy as f32,
-    };
+    let model = clip.model()?;
+    let camera = clip.meta.camera.camera();
     let records = u32::try_from(clip.frames.len()).context("too many frames")?;
     let table = match lut {
         "bundled" | "none" => match crate::lut::table_for(lut, model)? {
@@ -144,36 +93,13 @@ pub fn pack_bytes(dir: &Path, range: RangeArg, lut: &str) -> anyhow::Result<(Vec
     Ok((bytes, clip.frames.len()))
 }
 
-/// Loads a frame's chip with the checks `imade run` makes before the pipeline sees it.
-fn chip_frame(clip: &Clip, row: &FrameRow) -> Result<(ChipFrame, ChipImage), ChipProblem> {
-    let path = clip.path_of(&row.chip);
-    let chip = load_chip(&path)?;
-    let expected = clip.meta.chip;
-    if (chip.width, chip.height) != (expected.width, expected.height) {
-        return Err(ChipProblem::WrongSize {
-            path,
-            width: chip.width,
-            height: chip.height,
-            expected_width: expected.width,
-            expected_height: expected.height,
-        });
-    }
-    let (x0, y0) = match (i32::try_from(row.chip_x0), i32::try_from(row.chip_y0)) {
-        (Ok(x0), Ok(y0)) => (x0, y0),
-        _ => {
-            return Err(ChipProblem::OriginOutOfRange {
-                x0: row.chip_x0,
-                y0: row.chip_y0,
-            });
-        }
-    };
-    if let Err(error) = chip.view(x0, y0) {
-        return Err(ChipProblem::Refused { path, error });
-    }
+/// A frame's record header and chip, checked as `imade run` checks it.
+fn chip_frame(clip: &Clip, row: &FrameRow) -> Result<(ChipFrame, ChipImage), FrameChipError> {
+    let chip = clip.load_frame_chip(row)?;
     // The core viewed it, so both sides are at most its largest chip side.
     let side = |v: u32| {
-        u16::try_from(v).map_err(|_| ChipProblem::Refused {
-            path: path.clone(),
+        u16::try_from(v).map_err(|_| FrameChipError::Refused {
+            path: clip.path_of(&row.chip),
             error: imade_core::ChipError::TooLarge,
         })
     };
@@ -181,14 +107,14 @@ fn chip_frame(clip: &Clip, row: &FrameRow) -> Result<(ChipFrame, ChipImage), Chi
         frame: row.frame,
         time_s: row.time_s,
         range_m: row.range_m.map(|r| r as f32),
-        x0,
-        y0,
-        width: side(chip.width)?,
-        height: side(chip.height)?,
-        depth: match chip.pixels {
+        x0: chip.origin.0,
+        y0: chip.origin.1,
+        width: side(chip.image.width)?,
+        height: side(chip.image.height)?,
+        depth: match chip.image.pixels {
             ChipPixels::U8(_) => SampleDepth::U8,
             ChipPixels::U16(_) => SampleDepth::U16,
         },
     };
-    Ok((frame, chip))
+    Ok((frame, chip.image))
 }

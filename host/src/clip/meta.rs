@@ -1,6 +1,7 @@
 //! `clip.json`: camera intrinsics, chip size, projectile id and frame rate.
 
 use anyhow::{Context, bail};
+use imade_core::Camera;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -22,6 +23,18 @@ pub struct CameraMeta {
     pub width: u32,
     /// Full-frame height, px.
     pub height: u32,
+}
+
+impl CameraMeta {
+    /// The intrinsics as the core takes them (f32, full-frame px).
+    pub fn camera(&self) -> Camera {
+        Camera {
+            fx: self.fx as f32,
+            fy: self.fy as f32,
+            cx: self.cx as f32,
+            cy: self.cy as f32,
+        }
+    }
 }
 
 /// Chip size, px.

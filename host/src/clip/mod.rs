@@ -6,6 +6,7 @@
 //! a malformed row or a corrupt chip is an error for that frame only.
 
 mod chip_image;
+mod frame_chip;
 mod frames;
 mod mask_png;
 mod meta;
@@ -13,12 +14,15 @@ mod results;
 mod writer;
 
 pub use chip_image::{ChipImage, ChipPixels, load_chip, load_mask};
+pub use frame_chip::{FrameChip, FrameChipError};
 pub use frames::{FrameRow, FrameRowError, GroundTruth, read_frames};
 pub use mask_png::{mask_image, save_mask};
 pub use meta::{CameraMeta, ChipSize, ClipMeta, FORMAT_ID, read_meta};
 pub use results::{ResultRow, read_results};
 pub use writer::{ClipWriter, write_atomically};
 
+use anyhow::Context;
+use imade_core::{ProjectileModel, built_in_model};
 use std::path::{Path, PathBuf};
 
 /// An opened clip: its folder, metadata and frame rows (each row parsed or its error).
@@ -43,6 +47,18 @@ impl Clip {
             dir: dir.to_path_buf(),
             meta,
             frames,
+        })
+    }
+
+    /// The core's built-in model of the clip's projectile; an unknown id is an error naming
+    /// `clip.json`.
+    pub fn model(&self) -> anyhow::Result<&'static ProjectileModel> {
+        built_in_model(&self.meta.projectile).with_context(|| {
+            format!(
+                "{}: unknown projectile {:?}",
+                self.dir.join("clip.json").display(),
+                self.meta.projectile
+            )
         })
     }
 
