@@ -3,17 +3,11 @@
 //! bounded. Run with `--nocapture` to see the error table of the pose grid.
 
 use imade_core::lut::table::Table;
-use imade_core::{Camera, Config, FrameInput, Pipeline, REF_1378X80, Status};
 use imade_core::{ChipView, pose::wrap_deg};
-use imade_tests::render::{ChipStyle, Intrinsics, Rng, TruePose, chip_u8, project};
+use imade_core::{Config, FrameInput, Pipeline, REF_1378X80, Status};
+use imade_tests::render::{ChipStyle, Rng, TruePose, chip_u8, project};
+use imade_tests::{TELESCOPE, bundled_table, core_camera};
 use proptest::prelude::*;
-
-const CAM: Intrinsics = Intrinsics {
-    fx: 100000.0,
-    fy: 100000.0,
-    cx: 1023.5,
-    cy: 1023.5,
-};
 
 const STYLE: ChipStyle = ChipStyle {
     sky: 170.0,
@@ -25,25 +19,13 @@ const STYLE: ChipStyle = ChipStyle {
 
 const CHIP: usize = 256;
 
-/// The bundled silhouette table of the reference projectile.
-static TABLE: &[u8] = include_bytes!("../fixtures/lut/ref-1378x80.lut");
-
-fn table() -> Table<'static> {
-    Table::parse_for(TABLE, &REF_1378X80).expect("the bundled table is valid")
-}
-
-fn camera() -> Camera {
-    Camera {
-        fx: CAM.fx as f32,
-        fy: CAM.fy as f32,
-        cx: CAM.cx as f32,
-        cy: CAM.cy as f32,
-    }
-}
-
 /// A pose at slant range `range` whose body origin images at full-frame pixel `at`.
 fn pose_at(range: f64, at: (f64, f64), pitch: f64, yaw: f64, roll: f64) -> TruePose {
-    let ray = [(at.0 - CAM.cx) / CAM.fx, (at.1 - CAM.cy) / CAM.fy, 1.0];
+    let ray = [
+        (at.0 - TELESCOPE.cx) / TELESCOPE.fx,
+        (at.1 - TELESCOPE.cy) / TELESCOPE.fy,
+        1.0,
+    ];
     let norm = (ray[0] * ray[0] + ray[1] * ray[1] + 1.0).sqrt();
     TruePose {
         t: ray.map(|c| range * c / norm),
@@ -77,14 +59,21 @@ fn estimate(
     seed: u64,
     table: Option<Table<'static>>,
 ) -> Option<Errors> {
-    let (u, v) = project(&CAM, truth, [0.0; 3]);
+    let (u, v) = project(&TELESCOPE, truth, [0.0; 3]);
     let origin = (
         u.round() as i64 - CHIP as i64 / 2 + jitter.0,
         v.round() as i64 - CHIP as i64 / 2 + jitter.1,
     );
-    let (pixels, _) = chip_u8(&CAM, truth, origin, (CHIP, CHIP), &STYLE, &mut Rng(seed));
+    let (pixels, _) = chip_u8(
+        &TELESCOPE,
+        truth,
+        origin,
+        (CHIP, CHIP),
+        &STYLE,
+        &mut Rng(seed),
+    );
     let chip = ChipView::gray8(&pixels, CHIP, CHIP, CHIP, origin.0 as i32, origin.1 as i32).ok()?;
-    let pipeline: Pipeline = Pipeline::new(Config::DEFAULT, camera(), REF_1378X80);
+    let pipeline: Pipeline = Pipeline::new(Config::DEFAULT, core_camera(&TELESCOPE), REF_1378X80);
     let mut pipeline = match table {
         Some(t) => pipeline.with_table(t),
         None => pipeline,
@@ -131,7 +120,7 @@ fn renderer_matches_the_spec_test_vector() {
         ([0.0, 0.0, 0.0], (1223.500, 890.167)),
         ([-0.689, 0.0, 0.1], (1254.144, 918.537)),
     ] {
-        let (pu, pv) = project(&CAM, &pose, b);
+        let (pu, pv) = project(&TELESCOPE, &pose, b);
         assert!(
             (pu - u).abs() < 1e-3 && (pv - v).abs() < 1e-3,
             "{b:?}: ({pu}, {pv})"
@@ -223,7 +212,7 @@ fn closed_form_over_a_pose_grid() {
 /// issue (its targets on Tz, pitch and yaw, per km) met on the renderer's uniform-body chips.
 #[test]
 fn table_match_over_a_pose_grid() {
-    let (unknown, known, failures) = grid(Some(table()));
+    let (unknown, known, failures) = grid(Some(bundled_table()));
     let u = report("table match, unknown range", &unknown);
     let k = report("table match, known range", &known);
     println!("failed frames: {failures}");

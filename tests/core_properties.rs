@@ -9,18 +9,12 @@
 //!   [-180, 180] deg for both candidates.
 
 use imade_core::{
-    BodyPolarity, Camera, ChipView, Config, FrameInput, FrameResult, Pipeline, REF_1378X80, Status,
+    BodyPolarity, ChipView, Config, FrameInput, FrameResult, Pipeline, REF_1378X80, Status,
 };
-use imade_tests::render::{ChipStyle, Intrinsics, Rng, TruePose, chip_u8, project};
+use imade_tests::render::{ChipStyle, Rng, TruePose, chip_u8, project};
+use imade_tests::{TELESCOPE, core_camera};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
-
-const CAM: Intrinsics = Intrinsics {
-    fx: 100000.0,
-    fy: 100000.0,
-    cx: 1023.5,
-    cy: 1023.5,
-};
 
 /// One random chip's description.
 #[derive(Debug, Clone)]
@@ -147,7 +141,7 @@ impl Scene {
         let mut rng = Rng(self.seed.wrapping_add(k as u64));
         let (pixels, origin) = match self.pose(k) {
             Some(pose) => {
-                let (u, v) = project(&CAM, &pose, [0.0; 3]);
+                let (u, v) = project(&TELESCOPE, &pose, [0.0; 3]);
                 let (dx, dy) = self.projectile.as_ref().map_or((0, 0), |p| p.offset);
                 let origin = (
                     u.round() as i64 - self.width as i64 / 2 + dx,
@@ -155,7 +149,7 @@ impl Scene {
                 );
                 let size = (self.width, self.height);
                 (
-                    chip_u8(&CAM, &pose, origin, size, &style, &mut rng).0,
+                    chip_u8(&TELESCOPE, &pose, origin, size, &style, &mut rng).0,
                     origin,
                 )
             }
@@ -189,15 +183,6 @@ impl Scene {
             })
             .collect();
         (samples, origin)
-    }
-}
-
-fn camera() -> Camera {
-    Camera {
-        fx: CAM.fx as f32,
-        fy: CAM.fy as f32,
-        cx: CAM.cx as f32,
-        cy: CAM.cy as f32,
     }
 }
 
@@ -257,7 +242,7 @@ proptest! {
             polarity: [BodyPolarity::Dark, BodyPolarity::Bright, BodyPolarity::Auto][polarity],
             ..Config::DEFAULT
         };
-        let mut pipeline: Box<Pipeline> = Box::new(Pipeline::new(config, camera(), REF_1378X80));
+        let mut pipeline: Box<Pipeline> = Box::new(Pipeline::new(config, core_camera(&TELESCOPE), REF_1378X80));
         for k in 0..3 {
             let (samples, origin) = scene.render(k);
             let (w, h) = (scene.width, scene.height);

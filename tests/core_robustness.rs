@@ -6,24 +6,10 @@ use imade_core::segment::CapacityKind;
 use imade_core::{
     BodyPolarity, Camera, ChipView, Config, FrameInput, Pipeline, REF_1378X80, Status,
 };
-use imade_tests::render::{ChipStyle, Intrinsics, Rng, TruePose, chip_u8, project};
+use imade_tests::render::{ChipStyle, Rng, TruePose, chip_u8, project};
+use imade_tests::{TELESCOPE, core_camera};
 
-const CAM: Intrinsics = Intrinsics {
-    fx: 100000.0,
-    fy: 100000.0,
-    cx: 1023.5,
-    cy: 1023.5,
-};
 const N: usize = 256;
-
-fn camera() -> Camera {
-    Camera {
-        fx: 100000.0,
-        fy: 100000.0,
-        cx: 1023.5,
-        cy: 1023.5,
-    }
-}
 
 fn style(sky: f64, body: f64) -> ChipStyle {
     ChipStyle {
@@ -45,7 +31,7 @@ fn pose(range: f64, pitch: f64, yaw: f64) -> TruePose {
 }
 
 fn origin_of(p: &TruePose, jitter: (i64, i64)) -> (i64, i64) {
-    let (u, v) = project(&CAM, p, [0.0; 3]);
+    let (u, v) = project(&TELESCOPE, p, [0.0; 3]);
     (
         u.round() as i64 - 128 + jitter.0,
         v.round() as i64 - 128 + jitter.1,
@@ -68,7 +54,7 @@ fn process(
 }
 
 fn new_pipeline(config: Config) -> Box<Pipeline> {
-    Box::new(Pipeline::new(config, camera(), REF_1378X80))
+    Box::new(Pipeline::new(config, core_camera(&TELESCOPE), REF_1378X80))
 }
 
 fn iou(pipeline: &Pipeline, truth: &[bool]) -> f64 {
@@ -93,7 +79,14 @@ fn mask_matches_the_half_coverage_truth() {
     ] {
         let p = pose(range, pitch, yaw);
         let origin = origin_of(&p, (17, -22));
-        let (pixels, truth) = chip_u8(&CAM, &p, origin, (N, N), &style(170.0, 60.0), &mut Rng(7));
+        let (pixels, truth) = chip_u8(
+            &TELESCOPE,
+            &p,
+            origin,
+            (N, N),
+            &style(170.0, 60.0),
+            &mut Rng(7),
+        );
         let mut pipeline = new_pipeline(Config::DEFAULT);
         let result = process(&mut pipeline, &pixels, origin, 0.0, None);
         assert_eq!(result.status, Status::Ok);
@@ -111,10 +104,17 @@ fn mask_matches_the_half_coverage_truth() {
 fn rejects_a_bright_plume_behind_the_tail() {
     let p = pose(1200.0, 15.0, -75.0);
     let origin = origin_of(&p, (10, 12));
-    let (mut pixels, truth) = chip_u8(&CAM, &p, origin, (N, N), &style(150.0, 60.0), &mut Rng(3));
+    let (mut pixels, truth) = chip_u8(
+        &TELESCOPE,
+        &p,
+        origin,
+        (N, N),
+        &style(150.0, 60.0),
+        &mut Rng(3),
+    );
     // Plume: a Gaussian blob 1.5 body lengths aft of the origin, along the projected axis.
-    let (tu, tv) = project(&CAM, &p, [-0.689, 0.0, 0.0]);
-    let (nu, nv) = project(&CAM, &p, [0.689, 0.0, 0.0]);
+    let (tu, tv) = project(&TELESCOPE, &p, [-0.689, 0.0, 0.0]);
+    let (nu, nv) = project(&TELESCOPE, &p, [0.689, 0.0, 0.0]);
     let (cx, cy) = (
         tu + 0.35 * (tu - nu) - origin.0 as f64,
         tv + 0.35 * (tv - nv) - origin.1 as f64,
@@ -145,7 +145,14 @@ fn rejects_a_bright_plume_behind_the_tail() {
 fn finds_a_bright_body_on_a_dark_sky() {
     let p = pose(1500.0, -10.0, 95.0);
     let origin = origin_of(&p, (-25, 5));
-    let (pixels, truth) = chip_u8(&CAM, &p, origin, (N, N), &style(40.0, 200.0), &mut Rng(11));
+    let (pixels, truth) = chip_u8(
+        &TELESCOPE,
+        &p,
+        origin,
+        (N, N),
+        &style(40.0, 200.0),
+        &mut Rng(11),
+    );
     let config = Config {
         polarity: BodyPolarity::Bright,
         ..Config::DEFAULT
@@ -167,8 +174,8 @@ fn merges_a_broken_silhouette() {
     let p = pose(1000.0, 5.0, -60.0);
     let origin = origin_of(&p, (0, 0));
     let sky = style(170.0, 60.0);
-    let (mut pixels, _) = chip_u8(&CAM, &p, origin, (N, N), &sky, &mut Rng(5));
-    let (u, _) = project(&CAM, &p, [0.1, 0.0, 0.0]);
+    let (mut pixels, _) = chip_u8(&TELESCOPE, &p, origin, (N, N), &sky, &mut Rng(5));
+    let (u, _) = project(&TELESCOPE, &p, [0.1, 0.0, 0.0]);
     let column = (u - origin.0 as f64).round() as usize;
     for y in 0..N {
         for x in column..column + 3 {
@@ -265,7 +272,7 @@ fn a_bad_range_or_camera_is_bad_input() {
     }
     let bad_camera = Camera {
         fx: 0.0,
-        ..camera()
+        ..core_camera(&TELESCOPE)
     };
     let mut pipeline: Pipeline = Pipeline::new(Config::DEFAULT, bad_camera, REF_1378X80);
     let result = process(&mut pipeline, &pixels, (0, 0), 0.0, None);
@@ -295,7 +302,7 @@ fn the_range_trend_resolves_the_yaw_choice() {
             };
             let origin = origin_of(&p, ((k * 7 % 31) as i64 - 15, (k * 5 % 23) as i64 - 11));
             let (pixels, _) = chip_u8(
-                &CAM,
+                &TELESCOPE,
                 &p,
                 origin,
                 (N, N),

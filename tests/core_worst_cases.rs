@@ -10,29 +10,14 @@
 
 use imade_core::segment::CapacityKind;
 use imade_core::{
-    BodyPolarity, Camera, ChipError, ChipView, Config, FrameInput, FrameResult, Pipeline,
-    REF_1378X80, Status,
+    BodyPolarity, ChipError, ChipView, Config, FrameInput, FrameResult, Pipeline, REF_1378X80,
+    Status,
 };
-use imade_tests::render::{ChipStyle, Intrinsics, Rng, TruePose, blur, chip_u8, coverage, project};
-
-const CAM: Intrinsics = Intrinsics {
-    fx: 100000.0,
-    fy: 100000.0,
-    cx: 1023.5,
-    cy: 1023.5,
-};
-
-fn camera() -> Camera {
-    Camera {
-        fx: CAM.fx as f32,
-        fy: CAM.fy as f32,
-        cx: CAM.cx as f32,
-        cy: CAM.cy as f32,
-    }
-}
+use imade_tests::render::{ChipStyle, Rng, TruePose, blur, chip_u8, coverage, project};
+use imade_tests::{TELESCOPE, core_camera};
 
 fn pipeline(config: Config) -> Box<Pipeline> {
-    Box::new(Pipeline::new(config, camera(), REF_1378X80))
+    Box::new(Pipeline::new(config, core_camera(&TELESCOPE), REF_1378X80))
 }
 
 /// Processes one 8-bit `side` x `side` chip (or a 16-bit one) with a fresh pipeline.
@@ -221,8 +206,8 @@ fn clipped_skies_and_bodies_are_measured() {
 fn two_projectiles(aimed: &TruePose, offset: (f64, f64), range: f64, pitch: f64) -> Vec<u8> {
     let other = TruePose {
         t: [
-            offset.0 * aimed.t[2] / CAM.fx,
-            offset.1 * aimed.t[2] / CAM.fy,
+            offset.0 * aimed.t[2] / TELESCOPE.fx,
+            offset.1 * aimed.t[2] / TELESCOPE.fy,
             range,
         ],
         pitch_deg: pitch,
@@ -232,7 +217,7 @@ fn two_projectiles(aimed: &TruePose, offset: (f64, f64), range: f64, pitch: f64)
     let s = style(170.0, 60.0);
     let (mut pixels, _) = render(aimed, 256, &s, 8);
     let origin = origin_of(aimed, 256);
-    let other = coverage(&CAM, &other, origin.0, origin.1, 256, 256, 8);
+    let other = coverage(&TELESCOPE, &other, origin.0, origin.1, 256, 256, 8);
     let other = blur(&other, 256, 256, s.psf_sigma);
     for (v, c) in pixels.iter_mut().zip(&other) {
         *v = (f64::from(*v) + c * (s.body - s.sky))
@@ -283,10 +268,10 @@ fn cut_body(cut: i64) -> (Vec<u8>, (i64, i64), TruePose) {
         yaw_deg: -80.0,
         roll_deg: 0.0,
     };
-    let (u, v) = project(&CAM, &pose, [0.0; 3]);
+    let (u, v) = project(&TELESCOPE, &pose, [0.0; 3]);
     let origin = (u.round() as i64 - 68 + cut, v.round() as i64 - 128);
     let style = style(170.0, 60.0);
-    let (pixels, _) = chip_u8(&CAM, &pose, origin, (256, 256), &style, &mut Rng(9));
+    let (pixels, _) = chip_u8(&TELESCOPE, &pose, origin, (256, 256), &style, &mut Rng(9));
     (pixels, origin, pose)
 }
 
@@ -336,14 +321,14 @@ fn style(sky: f64, body: f64) -> ChipStyle {
 
 /// Full-frame origin of a `side` x `side` chip centred on the body origin.
 fn origin_of(pose: &TruePose, side: usize) -> (i64, i64) {
-    let (u, v) = project(&CAM, pose, [0.0; 3]);
+    let (u, v) = project(&TELESCOPE, pose, [0.0; 3]);
     let half = side as i64 / 2;
     (u.round() as i64 - half, v.round() as i64 - half)
 }
 
 fn render(pose: &TruePose, side: usize, style: &ChipStyle, seed: u64) -> (Vec<u8>, Vec<bool>) {
     chip_u8(
-        &CAM,
+        &TELESCOPE,
         pose,
         origin_of(pose, side),
         (side, side),

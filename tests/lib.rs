@@ -5,3 +5,32 @@
 //! core's estimates are checked against an independent truth.
 
 pub mod render;
+
+use imade_core::lut::table::Table;
+use imade_core::{Camera, REF_1378X80};
+use render::Intrinsics;
+
+/// The telescope of the tests' rendered chips (and of the fixtures): fx = fy = 100000 px, principal
+/// point at the centre of a 2048 x 2048 frame.
+pub const TELESCOPE: Intrinsics = Intrinsics {
+    fx: 100000.0,
+    fy: 100000.0,
+    cx: 1023.5,
+    cy: 1023.5,
+};
+
+/// The core's camera for the renderer's intrinsics.
+pub fn core_camera(intrinsics: &Intrinsics) -> Camera {
+    Camera {
+        fx: intrinsics.fx as f32,
+        fy: intrinsics.fy as f32,
+        cx: intrinsics.cx as f32,
+        cy: intrinsics.cy as f32,
+    }
+}
+
+/// The bundled silhouette table of the reference projectile, validated.
+pub fn bundled_table() -> Table<'static> {
+    static BYTES: &[u8] = include_bytes!("../fixtures/lut/ref-1378x80.lut");
+    Table::parse_for(BYTES, &REF_1378X80).expect("the bundled table is valid")
+}
