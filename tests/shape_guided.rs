@@ -4,8 +4,13 @@
 //! wrong pose. The IoU against the truth of the prior and of each method's mask is compared, as
 //! the paper's Fig. 19 does. Run with `--nocapture` for the tables.
 
-use imade_core::shape_guided::{Method, ShapeGuided, ShapeGuidedConfig};
-use imade_core::{Camera, ChipMask, ChipView, Config, FrameInput, Pipeline, REF_1378X80, Status};
+use imade_core::lut::table::Table;
+use imade_core::pose::wrap_deg;
+use imade_core::shape_guided::{LoopOutcome, LoopStop, Method, ShapeGuided, ShapeGuidedConfig};
+use imade_core::{
+    Camera, ChipMask, ChipView, Config, FrameInput, Pipeline, REF_1378X80, RangeUse, RefineConfig,
+    RefineMethod, Status,
+};
 use imade_host::clip::{Clip, load_chip, load_mask};
 use imade_tests::render::{
     ChipStyle, Intrinsics, Rng, TruePose, chip_u8, coverage, project, rotation,
@@ -489,6 +494,172 @@ proptest::proptest! {
             if let Ok(r) = sg.refine(method, &config, &chip, &prior, &mut out) {
                 proptest::prop_assert_eq!((out.width(), out.height()), (w, h));
                 proptest::prop_assert_eq!(r.area_px, out.count());
+            }
+        }
+    }
+}
+
+/// One frame of the refinement loop on the Table 1 test clip.
+struct LoopFrame {
+    /// Frame number.
+    frame: u64,
+    /// Pose errors per 1 km: Tx, Ty, Tz (m/km), pitch, chosen yaw, best yaw (deg/km).
+    errors: [f64; 6],
+    /// What the loop did (None without refinement).
+    outcome: Option<LoopOutcome>,
+    /// IoU against the truth of the blind mask, the prior at the final pose and the refined mask
+    /// (None where the stage has no mask).
+    ious: [Option<f64>; 3],
+}
+
+/// The pipeline with the bundled table and `method` over the Table 1 test clip.
+fn run_loop(method: RefineMethod, range_use: RangeUse) -> Vec<LoopFrame> {
+    let clip = table1();
+    let c = clip.meta.camera;
+    let camera = Camera {
+        fx: c.fx as f32,
+        fy: c.fy as f32,
+        cx: c.cx as f32,
+        cy: c.cy as f32,
+    };
+    let config = Config {
+        range_use,
+        refine: RefineConfig {
+            method,
+            ..RefineConfig::DEFAULT
+        },
+        ..Config::DEFAULT
+    };
+    let table = Table::parse_for(
+        include_bytes!("../fixtures/lut/ref-1378x80.lut"),
+        &REF_1378X80,
+    )
+    .expect("bundled table");
+    let mut pipeline: Box<Pipeline> =
+        Box::new(Pipeline::new(config, camera, REF_1378X80).with_table(table));
+    let mut frames = Vec::new();
+    for row in clip.frames.iter().map(|r| r.as_ref().expect("valid row")) {
+        let image = load_chip(&clip.path_of(&row.chip)).expect("chip");
+        let w = image.width as usize;
+        let (_, _, truth) =
+            load_mask(&clip.path_of(row.gt_mask.as_deref().expect("mask"))).expect("mask");
+        let chip = image
+            .view(row.chip_x0 as i32, row.chip_y0 as i32)
+            .expect("view");
+        let result = pipeline.process(&FrameInput {
+            chip,
+            time_s: row.time_s,
+            range_m: row.range_m.map(|r| r as f32),
+        });
+        if result.status != Status::Ok {
+            continue;
+        }
+        let gt = row.truth.expect("ground truth");
+        let km = gt.tz_m / 1000.0;
+        let p = result.pose;
+        let angle = |a: f32, b: f64| wrap_deg(a - b as f32).abs() as f64 / km;
+        let yaw = angle(p.yaw_deg, gt.yaw_deg);
+        let score = |m: &ChipMask| (m.count() > 0).then(|| iou(m, &truth, w));
+        frames.push(LoopFrame {
+            frame: row.frame,
+            errors: [
+                (p.tx_m as f64 - gt.tx_m).abs() / km,
+                (p.ty_m as f64 - gt.ty_m).abs() / km,
+                (p.tz_m as f64 - gt.tz_m).abs() / km,
+                angle(p.pitch_deg, gt.pitch_deg),
+                yaw,
+                yaw.min(angle(result.yaw_alt_deg, gt.yaw_deg)),
+            ],
+            outcome: pipeline.refinement().copied(),
+            ious: [
+                score(pipeline.mask()),
+                score(pipeline.prior()),
+                score(pipeline.refined_mask()),
+            ],
+        });
+    }
+    frames
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+/// The refinement loop with each method, with and without the clip's range, against the truth:
+/// the stop rule never keeps a re-match that fits the width profile worse than the first match,
+/// the pose stays within the table match's targets (tests/table_match.rs), every frame with a
+/// pose has a refined mask, and where a re-match was accepted the prior drawn at the final pose
+/// is compared with the first one (the run without refinement).
+#[test]
+fn refinement_loop_on_the_table1_test_clip() {
+    for range_use in [RangeUse::Auto, RangeUse::Ignore] {
+        let none = run_loop(RefineMethod::None, range_use);
+        for method in RefineMethod::ALL {
+            let frames = if method == RefineMethod::None {
+                &none
+            } else {
+                &run_loop(method, range_use)
+            };
+            assert!(frames.len() >= 150, "{} frames with a pose", frames.len());
+            let errors = |k: usize| median(frames.iter().map(|f| f.errors[k]).collect());
+            let ious = |k: usize| median(frames.iter().filter_map(|f| f.ious[k]).collect());
+            let outcomes: Vec<LoopOutcome> = frames.iter().filter_map(|f| f.outcome).collect();
+            let mut stops = std::collections::BTreeMap::new();
+            for o in &outcomes {
+                *stops.entry(format!("{:?}", o.stop)).or_insert(0) += 1;
+            }
+            // The prior at the final pose against the first one, where a re-match was accepted.
+            let paired: Vec<(f64, f64)> = frames
+                .iter()
+                .filter(|f| f.outcome.is_some_and(|o| o.accepted > 0))
+                .filter_map(|f| Some((f, none.iter().find(|n| n.frame == f.frame)?)))
+                .filter_map(|(f, n)| Some((n.ious[1]?, f.ious[1]?)))
+                .collect();
+            let better = paired.iter().filter(|(a, b)| b > a).count();
+            println!(
+                "{range_use:?} {}: {} frames, Tx {:.4} Ty {:.4} Tz {:.2} m/km, pitch {:.3} yaw {:.2} \
+                 best {:.2} deg/km; IoU blind {:.3} prior {:.3} refined {:.3}; re-match accepted \
+                 in {} (prior IoU {:.3} -> {:.3}, better in {better}), stops {stops:?}",
+                method.as_str(),
+                frames.len(),
+                errors(0),
+                errors(1),
+                errors(2),
+                errors(3),
+                errors(4),
+                errors(5),
+                ious(0),
+                ious(1),
+                ious(2),
+                paired.len(),
+                median(paired.iter().map(|p| p.0).collect()),
+                median(paired.iter().map(|p| p.1).collect()),
+            );
+            if method == RefineMethod::None {
+                assert!(outcomes.is_empty() && frames.iter().all(|f| f.ious[2].is_none()));
+                continue;
+            }
+            assert_eq!(outcomes.len(), frames.len(), "the loop runs in every frame");
+            for (f, o) in frames.iter().zip(&outcomes) {
+                assert!(o.rms_px <= o.first_rms_px, "kept a worse fit: {o:?}");
+                assert!(o.rounds >= 1 && o.rounds <= RefineConfig::DEFAULT.max_rounds);
+                assert!(o.accepted < o.rounds || o.stop == LoopStop::Rounds, "{o:?}");
+                assert!(f.ious[2].is_some(), "no refined mask: {o:?}");
+            }
+            assert!(
+                2 * better > paired.len(),
+                "accepted re-matches improve the prior in {better} of {}",
+                paired.len()
+            );
+            if range_use == RangeUse::Ignore {
+                assert!(errors(2) <= 10.0, "Tz {}", errors(2));
+                assert!(errors(3) <= 0.5, "pitch {}", errors(3));
+                assert!(errors(5) <= 6.0, "yaw best {}", errors(5));
+            } else {
+                assert!(errors(0) <= 0.01 && errors(1) <= 0.01, "in-plane");
+                assert!(errors(3) <= 0.5, "pitch {}", errors(3));
+                assert!(errors(4) <= 4.0, "yaw chosen {}", errors(4));
             }
         }
     }

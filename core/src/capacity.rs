@@ -8,8 +8,15 @@ pub const MAX_CHIP_SIDE: usize = 512;
 /// Largest number of chip pixels.
 pub const MAX_CHIP_PIXELS: usize = MAX_CHIP_SIDE * MAX_CHIP_SIDE;
 
-/// 32-bit words of a bit-packed mask of [`MAX_CHIP_PIXELS`] (32 KiB).
-pub const MASK_WORDS: usize = MAX_CHIP_PIXELS / 32;
+/// 32-bit words of a bit-packed mask of a square chip `side` px wide (rows padded to whole words).
+pub const fn mask_words(side: usize) -> usize {
+    side.div_ceil(32) * side
+}
+
+/// 32-bit words of a bit-packed mask of [`MAX_CHIP_PIXELS`] (32 KiB): the default size of the
+/// pipeline's masks (`Pipeline`'s `MASK_WORDS`; a smaller one reports larger chips as a
+/// capacity).
+pub const MASK_WORDS: usize = mask_words(MAX_CHIP_SIDE);
 
 /// Default capacity of the run table of the connected-component labeler (8 bytes a run).
 pub const DEFAULT_MAX_RUNS: usize = 4096;

@@ -22,6 +22,83 @@ pub enum RangeUse {
     Ignore,
 }
 
+/// The shape-guided segmentation that refines the table match (the source paper's loop: prior,
+/// segmentation guided by it, match again). Needs imade-core's `shape-guided` feature (on by
+/// default); without it every method runs as `None`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RefineMethod {
+    /// No refinement: the first table match is the pose.
+    None,
+    /// SIS-Cut (the paper's Algorithm 2).
+    SisCut,
+    /// GVF-ASM (the paper's Algorithm 1).
+    GvfAsm,
+}
+
+impl RefineMethod {
+    /// Every method.
+    pub const ALL: [RefineMethod; 3] = [
+        RefineMethod::None,
+        RefineMethod::SisCut,
+        RefineMethod::GvfAsm,
+    ];
+
+    /// The name on command lines: `none`, `sis-cut` or `gvf-asm`.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            RefineMethod::None => "none",
+            RefineMethod::SisCut => "sis-cut",
+            RefineMethod::GvfAsm => "gvf-asm",
+        }
+    }
+}
+
+/// A name that is not `none`, `sis-cut` or `gvf-asm`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct UnknownRefineMethod;
+
+impl core::str::FromStr for RefineMethod {
+    type Err = UnknownRefineMethod;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        RefineMethod::ALL
+            .into_iter()
+            .find(|m| m.as_str() == s)
+            .ok_or(UnknownRefineMethod)
+    }
+}
+
+/// The refinement loop and its stop rule: each round segments the chip guided by the current
+/// prior, carries the segmentation's transform to the table match's axis and ends, matches
+/// again, and keeps the new match only when it agrees with the current one and fits the width
+/// profile no worse.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RefineConfig {
+    /// The segmentation method.
+    pub method: RefineMethod,
+    /// Most rounds (segmentations) a frame.
+    pub max_rounds: u8,
+    /// Stop when the segmentation moves the prior's box corners less than this, px.
+    pub identity_px: f32,
+    /// Reject a re-match whose tilt differs from the current one's by more, deg.
+    pub max_tilt_change_deg: f32,
+    /// Reject a re-match whose projected nose tip or tail base moved more, px.
+    pub max_end_shift_px: f32,
+}
+
+impl RefineConfig {
+    /// The defaults: no refinement; when a method is chosen, at most 2 rounds.
+    pub const DEFAULT: RefineConfig = RefineConfig {
+        method: RefineMethod::None,
+        max_rounds: 2,
+        identity_px: 0.5,
+        max_tilt_change_deg: 5.0,
+        max_end_shift_px: 3.0,
+    };
+}
+
 /// Pipeline configuration. [`Config::DEFAULT`] holds the defaults.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -49,6 +126,8 @@ pub struct Config {
     pub max_gap_s: f32,
     /// How a range measurement is used.
     pub range_use: RangeUse,
+    /// Shape-guided refinement of the table match.
+    pub refine: RefineConfig,
 }
 
 impl Config {
@@ -65,6 +144,7 @@ impl Config {
         trend_sigma: 3.0,
         max_gap_s: 1.0,
         range_use: RangeUse::Auto,
+        refine: RefineConfig::DEFAULT,
     };
 }
 

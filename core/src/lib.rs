@@ -12,6 +12,7 @@
 //! | principal axis, nose tip, tail edge, subpixel diameter | [`extremes`] | [`Silhouette`] |
 //! | Eq. 1-2 in the line-of-sight frame, range from the diameter | [`closed_form`] | pose, both yaw candidates |
 //! | shaded cross-section, width profile matched against the silhouette table, shape prior | [`lut`] | refined pose, prior mask |
+//! | segmentation guided by the prior, table match again (feature `shape-guided`) | `shape_guided` | refined mask, pose kept only when the re-match agrees |
 //! | Eq. 5 range smoothing, range trend, yaw choice | [`temporal`] | the chosen candidate |
 //!
 //! [`Pipeline::process`] runs them all.
@@ -32,12 +33,13 @@ pub mod pipeline;
 pub mod pose;
 pub mod results;
 pub mod segment;
+#[cfg(feature = "shape-guided")]
 pub mod shape_guided;
 pub mod temporal;
 
 pub use camera::Camera;
 pub use chip::{ChipError, ChipView};
-pub use config::{BodyPolarity, Config, RangeUse};
+pub use config::{BodyPolarity, Config, RangeUse, RefineConfig, RefineMethod};
 pub use extremes::Silhouette;
 pub use mask::{BitMask, ChipMask};
 pub use model::{ProjectileModel, REF_1378X80, built_in_model};

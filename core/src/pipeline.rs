@@ -11,10 +11,12 @@ use crate::extremes::{self, Silhouette};
 use crate::lut::matcher::Match;
 use crate::lut::table::Table;
 use crate::lut::{self, Refined, render};
-use crate::mask::ChipMask;
+use crate::mask::BitMask;
 use crate::model::ProjectileModel;
 use crate::pose::Pose;
 use crate::segment::{CapacityKind, SegmentError, Segmenter};
+#[cfg(feature = "shape-guided")]
+use crate::shape_guided::{LoopOutcome, LoopStop, ShapeGuided, ShapeGuidedConfig, feedback};
 use crate::temporal::Temporal;
 
 /// One frame's input.
@@ -147,24 +149,34 @@ impl FrameResult {
     }
 }
 
-/// The pipeline with its buffers: `MAX_RUNS` and `MAX_LABELS` size the labeler
-/// (see [`crate::capacity`]).
+/// The pipeline with its buffers: `MAX_RUNS` and `MAX_LABELS` size the labeler, `MASK_WORDS`
+/// its chip masks (32-bit words each, [`crate::capacity::mask_words`] of the largest chip side:
+/// 512 px by default; a larger chip is then a `Capacity` status). See [`crate::capacity`].
 pub struct Pipeline<
     const MAX_RUNS: usize = DEFAULT_MAX_RUNS,
     const MAX_LABELS: usize = DEFAULT_MAX_LABELS,
+    const MASK_WORDS: usize = { crate::capacity::MASK_WORDS },
 > {
     config: Config,
     camera: Camera,
     model: ProjectileModel,
     segmenter: Segmenter<MAX_RUNS, MAX_LABELS>,
-    mask: ChipMask,
-    prior: ChipMask,
+    mask: BitMask<MASK_WORDS>,
+    prior: BitMask<MASK_WORDS>,
     temporal: Temporal,
     table: Option<Table<'static>>,
     refined: Option<Refined>,
+    #[cfg(feature = "shape-guided")]
+    shape_guided: ShapeGuided,
+    #[cfg(feature = "shape-guided")]
+    refined_mask: BitMask<MASK_WORDS>,
+    #[cfg(feature = "shape-guided")]
+    outcome: Option<LoopOutcome>,
 }
 
-impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABELS> {
+impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
+    Pipeline<MAX_RUNS, MAX_LABELS, MASK_WORDS>
+{
     /// A pipeline for one camera and projectile.
     pub const fn new(config: Config, camera: Camera, model: ProjectileModel) -> Self {
         Pipeline {
@@ -172,11 +184,17 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABE
             camera,
             model,
             segmenter: Segmenter::new(),
-            mask: ChipMask::new(),
-            prior: ChipMask::new(),
+            mask: BitMask::new(),
+            prior: BitMask::new(),
             temporal: Temporal::new(),
             table: None,
             refined: None,
+            #[cfg(feature = "shape-guided")]
+            shape_guided: ShapeGuided::new(),
+            #[cfg(feature = "shape-guided")]
+            refined_mask: BitMask::new(),
+            #[cfg(feature = "shape-guided")]
+            outcome: None,
         }
     }
 
@@ -193,14 +211,28 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABE
     }
 
     /// The target mask of the last frame (chip-sized; empty when no target was found).
-    pub fn mask(&self) -> &ChipMask {
+    pub fn mask(&self) -> &BitMask<MASK_WORDS> {
         &self.mask
     }
 
-    /// The shape prior of the last frame: the model's silhouette rendered at the estimated pose,
-    /// chip-sized (empty when no pose was estimated or no lookup table is loaded).
-    pub fn prior(&self) -> &ChipMask {
+    /// The shape prior of the last frame: the model's silhouette rendered at the estimated pose
+    /// (after the refinement loop, where it ran), chip-sized (empty when no pose was estimated or
+    /// no lookup table is loaded).
+    pub fn prior(&self) -> &BitMask<MASK_WORDS> {
         &self.prior
+    }
+
+    /// The shape-guided segmentation of the last frame's last refinement round (the prior it
+    /// started from where the method failed), chip-sized; empty where the loop did not run.
+    #[cfg(feature = "shape-guided")]
+    pub fn refined_mask(&self) -> &BitMask<MASK_WORDS> {
+        &self.refined_mask
+    }
+
+    /// What the refinement loop did in the last frame (None where it did not run).
+    #[cfg(feature = "shape-guided")]
+    pub fn refinement(&self) -> Option<&LoopOutcome> {
+        self.outcome.as_ref()
     }
 
     /// The last frame's table match, with its measurements (None where it did not run or match).
@@ -212,14 +244,23 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABE
     pub fn reset(&mut self) {
         self.temporal.reset();
         self.mask.clear();
+        self.clear_pose_outputs();
+    }
+
+    /// Clears what only a frame with a pose gives: prior, table match, refinement.
+    fn clear_pose_outputs(&mut self) {
         self.prior.clear();
         self.refined = None;
+        #[cfg(feature = "shape-guided")]
+        {
+            self.refined_mask.clear();
+            self.outcome = None;
+        }
     }
 
     /// Processes one frame.
     pub fn process(&mut self, input: &FrameInput) -> FrameResult {
-        self.prior.clear();
-        self.refined = None;
+        self.clear_pose_outputs();
         let range = match (input.range_m, self.config.range_use) {
             (Some(r), RangeUse::Auto) => {
                 if !(r.is_finite() && r > 0.0) {
@@ -292,6 +333,10 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABE
             }
             _ => None,
         };
+        let refined = refined.map(|first| {
+            self.draw_prior(chip, &first);
+            self.refine_loop(chip, &silhouette, target.class, range, first)
+        });
         // The range measured from the image: the matched scale's, else the diameter's.
         let image_range = refined
             .as_ref()
@@ -307,10 +352,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABE
         self.temporal.push_range(t, measured, &self.config);
         self.temporal.set_nose_dir(silhouette.axis.dir);
         let solution = match &refined {
-            Some(r) => {
-                self.draw_prior(chip, r);
-                r.at_range(&self.camera, &self.model, range_m)
-            }
+            Some(r) => r.at_range(&self.camera, &self.model, range_m),
             None => closed_form::solve(
                 &silhouette,
                 (chip.x0(), chip.y0()),
@@ -330,14 +372,108 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Pipeline<MAX_RUNS, MAX_LABE
         if result.is_finite() && result.pose.tz_m > 0.0 {
             result
         } else {
-            self.prior.clear();
-            self.refined = None;
+            self.clear_pose_outputs();
             FrameResult::failed(Status::Unmeasurable)
         }
     }
 
+    /// The refinement loop (`Config.refine`) from the first table match `first`, whose prior is
+    /// drawn: rounds of shape-guided segmentation and table match on the moved axis and ends, each
+    /// re-match kept only when the stop rule accepts it. Returns the match kept.
+    #[cfg(feature = "shape-guided")]
+    fn refine_loop(
+        &mut self,
+        chip: &ChipView,
+        silhouette: &Silhouette,
+        class: i8,
+        range: Option<f32>,
+        first: Refined,
+    ) -> Refined {
+        let limits = self.config.refine;
+        let (Some(method), Some(table)) = (limits.method.method(), self.table) else {
+            return first;
+        };
+        let origin = (chip.x0(), chip.y0());
+        let mut outcome = LoopOutcome::start(method, &first);
+        let (mut current, mut measured) = (first, *silhouette);
+        outcome.stop = loop {
+            if outcome.rounds >= limits.max_rounds {
+                break LoopStop::Rounds;
+            }
+            outcome.rounds += 1;
+            let segmentation = self.shape_guided.refine(
+                method,
+                &ShapeGuidedConfig::DEFAULT,
+                chip,
+                &self.prior,
+                &mut self.refined_mask,
+            );
+            let segmentation = match segmentation {
+                Ok(s) => s,
+                Err(e) => {
+                    self.refined_mask.clone_from(&self.prior);
+                    break LoopStop::Failed(e);
+                }
+            };
+            outcome.last = Some(segmentation);
+            if segmentation.shift_px < limits.identity_px {
+                break LoopStop::Converged;
+            }
+            let Some(moved) = feedback::moved_input(
+                &measured,
+                &current,
+                &segmentation.transform,
+                origin,
+                &self.camera,
+                &self.model,
+            ) else {
+                break LoopStop::Degenerate;
+            };
+            let frame = lut::Frame {
+                chip,
+                background: self.segmenter.background(),
+                silhouette: &moved.silhouette,
+                class,
+                origin,
+            };
+            let Ok(next) = lut::refine(
+                &frame,
+                &table,
+                &self.model,
+                &self.camera,
+                &moved.closed,
+                range,
+            ) else {
+                break LoopStop::NoMatch;
+            };
+            if let Err(stop) = feedback::judge(&current, &next, &limits) {
+                break stop;
+            }
+            outcome.accepted += 1;
+            (current, measured) = (next, moved.silhouette);
+            self.draw_prior(chip, &current);
+        };
+        outcome.rms_px = current.matched.rms_px;
+        self.outcome = Some(outcome);
+        current
+    }
+
+    /// Without the `shape-guided` feature there is no refinement: the first match is kept.
+    #[cfg(not(feature = "shape-guided"))]
+    fn refine_loop(
+        &mut self,
+        _chip: &ChipView,
+        _silhouette: &Silhouette,
+        _class: i8,
+        _range: Option<f32>,
+        first: Refined,
+    ) -> Refined {
+        first
+    }
+
     /// Draws the matched entry's silhouette into the prior mask.
     fn draw_prior(&mut self, chip: &ChipView, refined: &Refined) {
+        self.prior.clear();
         let Some(table) = &self.table else { return };
         let tilt_step = 90.0 / (table.tilts() - 1) as f32;
         let roll_step = 90.0 / table.rolls() as f32;

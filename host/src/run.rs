@@ -6,7 +6,10 @@ use crate::exit::PartialFailure;
 use crate::stages::{STAGES, mask_file_name};
 use crate::summary::{ClipSummary, Problem, RunSummary, SUMMARY_FORMAT};
 use anyhow::{Context, bail};
-use imade_core::{Camera, Config, FrameInput, Pipeline, RangeUse, Status, built_in_model, results};
+use imade_core::{
+    Camera, Config, FrameInput, Pipeline, RangeUse, RefineConfig, RefineMethod, Status,
+    built_in_model, results,
+};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -45,6 +48,25 @@ impl RangeArg {
     }
 }
 
+/// Parses `--refine`: `none`, `sis-cut` or `gvf-asm`.
+pub fn parse_refine(name: &str) -> Result<RefineMethod, String> {
+    name.parse().map_err(|_| {
+        let names: Vec<&str> = RefineMethod::ALL.iter().map(|m| m.as_str()).collect();
+        format!("expected one of {}", names.join(", "))
+    })
+}
+
+/// The core configuration of a job: the range use's, with the refinement method.
+fn job_config(range: RangeArg, refine: RefineMethod) -> Config {
+    Config {
+        refine: RefineConfig {
+            method: refine,
+            ..RefineConfig::DEFAULT
+        },
+        ..range.config()
+    }
+}
+
 /// Arguments of `imade run`.
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {
@@ -59,13 +81,18 @@ pub struct RunArgs {
     #[arg(long, value_enum, default_value = "auto")]
     pub range: RangeArg,
     /// Also write each frame's mask of every segmentation stage beside the results
-    /// (`masks/NNNNNN.png`, `priors/NNNNNN.png`, 8-bit, 0 or 255).
+    /// (`masks/NNNNNN.png`, `priors/NNNNNN.png`, with `--refine` also `refined/NNNNNN.png`;
+    /// 8-bit, 0 or 255).
     #[arg(long)]
     pub save_masks: bool,
     /// Silhouette table of the table match: `bundled` (`fixtures/lut/<projectile>.lut`), `none`
     /// (closed form only), or a table file.
     #[arg(long, default_value = "bundled")]
     pub lut: String,
+    /// Shape-guided refinement of the table match: `none`, `sis-cut` or `gvf-asm` (needs a
+    /// table; docs/shape-guided.md).
+    #[arg(long, default_value = "none", value_parser = parse_refine)]
+    pub refine: RefineMethod,
 }
 
 /// One clip to process and where its results go.
@@ -81,6 +108,8 @@ pub struct Job {
     pub save_masks: bool,
     /// The table choice (see [`RunArgs::lut`]).
     pub lut: String,
+    /// The refinement method (see [`RunArgs::refine`]).
+    pub refine: RefineMethod,
 }
 
 /// Runs `imade run`. Every clip is processed independently; the outcome is an error carrying
@@ -139,6 +168,7 @@ fn plan(args: &RunArgs) -> anyhow::Result<Vec<Job>> {
             range: args.range,
             save_masks: args.save_masks,
             lut: args.lut.clone(),
+            refine: args.refine,
         })
         .collect();
     for (i, job) in jobs.iter().enumerate() {
@@ -227,7 +257,7 @@ fn pipeline_for(clip: &Clip, config: Config, lut: &str) -> anyhow::Result<Box<Pi
 
 /// Processes one opened clip and writes its results CSV atomically (and the stage masks).
 pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<ClipSummary> {
-    let mut pipeline = pipeline_for(clip, job.range.config(), &job.lut)?;
+    let mut pipeline = pipeline_for(clip, job_config(job.range, job.refine), &job.lut)?;
     prepare_mask_folders(&job.out_dir, job.save_masks)?;
     let mut csv = String::from(results::HEADER);
     csv.push('\n');
@@ -370,4 +400,54 @@ fn process_frame(
         time_s: row.time_s,
         range_m: row.range_m.map(|r| r as f32),
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stages::REFINED_FOLDER;
+
+    #[test]
+    fn refine_names_parse_and_others_are_refused() {
+        for method in RefineMethod::ALL {
+            assert_eq!(parse_refine(method.as_str()), Ok(method));
+        }
+        let error = parse_refine("graph-cut").unwrap_err();
+        assert!(error.contains("none, sis-cut, gvf-asm"), "{error}");
+    }
+
+    #[test]
+    fn refined_masks_are_saved_and_scored() -> anyhow::Result<()> {
+        let clip = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/small-known-range");
+        let out = std::env::temp_dir().join(format!("imade-refine-{}", std::process::id()));
+        run(&RunArgs {
+            clips: vec![clip.clone()],
+            out: out.clone(),
+            range: RangeArg::Auto,
+            save_masks: true,
+            lut: "bundled".into(),
+            refine: RefineMethod::GvfAsm,
+        })?;
+        let poses = std::fs::read_to_string(out.join("results.csv"))?
+            .lines()
+            .filter(|line| line.contains(",ok,"))
+            .count();
+        let refined = std::fs::read_dir(out.join(REFINED_FOLDER))?.count();
+        let evaluation = crate::eval::evaluate(&clip, &out.join("results.csv"))?;
+        std::fs::remove_dir_all(&out)?;
+        assert!(poses > 0);
+        assert_eq!(refined, poses, "one refined mask per frame with a pose");
+        let stage = evaluation
+            .segmentation
+            .iter()
+            .find(|s| s.folder == REFINED_FOLDER)
+            .expect("the refined stage is scored");
+        assert_eq!(stage.frames - stage.missing, poses);
+        assert!(
+            stage.stats.is_some_and(|s| s.median > 0.5),
+            "{:?}",
+            stage.stats
+        );
+        Ok(())
+    }
 }

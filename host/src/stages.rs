@@ -2,8 +2,8 @@
 //!
 //! Each stage is one entry of [`STAGES`]: its name, the folder beside the results file where its
 //! masks go (`<folder>/NNNNNN.png`, 8-bit, 0 or 255), how to read it from the pipeline after a
-//! frame, and the source paper's counterpart. A new stage (for example a shape-guided
-//! segmentation) is one more entry here; run, eval and plot pick it up.
+//! frame, and the source paper's counterpart. A new stage is one more entry here; run, eval
+//! and plot pick it up.
 
 use crate::eval::paper::{self, PaperIou};
 use imade_core::{ChipMask, Pipeline};
@@ -25,6 +25,8 @@ pub struct MaskStage {
 pub const MASKS_FOLDER: &str = "masks";
 /// Folder of the shape priors.
 pub const PRIORS_FOLDER: &str = "priors";
+/// Folder of the shape-guided segmentations (`imade run --refine sis-cut|gvf-asm`).
+pub const REFINED_FOLDER: &str = "refined";
 
 /// Every stage, in pipeline order.
 pub const STAGES: &[MaskStage] = &[
@@ -39,6 +41,13 @@ pub const STAGES: &[MaskStage] = &[
         folder: PRIORS_FOLDER,
         mask: Pipeline::prior,
         paper: Some(paper::IOU_SHAPE_PRIOR),
+    },
+    MaskStage {
+        name: "shape-guided segmentation",
+        folder: REFINED_FOLDER,
+        mask: Pipeline::refined_mask,
+        // Fig. 19 gives no median for SIS-Cut or GVF-ASM, only that both fall below the prior.
+        paper: None,
     },
 ];
 

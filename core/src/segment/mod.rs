@@ -13,7 +13,7 @@ pub mod select;
 use crate::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS, MAX_COMPONENTS};
 use crate::chip::ChipView;
 use crate::config::Config;
-use crate::mask::ChipMask;
+use crate::mask::BitMask;
 use background::Background;
 use label::{LabelError, Labeler, Moments, Rect};
 use select::{Candidate, Selection, Shape};
@@ -96,12 +96,12 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Segmenter<MAX_RUNS, MAX_LAB
     }
 
     /// Detects the target in `chip`, aiming near `aim` (chip px), and paints its mask.
-    pub fn detect(
+    pub fn detect<const W: usize>(
         &mut self,
         chip: &ChipView,
         config: &Config,
         aim: (f32, f32),
-        mask: &mut ChipMask,
+        mask: &mut BitMask<W>,
     ) -> Result<Target, SegmentError> {
         mask.reset(chip.width(), chip.height())
             .map_err(|_| SegmentError::Capacity(CapacityKind::Mask))?;
@@ -148,13 +148,13 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Segmenter<MAX_RUNS, MAX_LAB
 
     /// Recuts the target's mask where its contrast (of the target's polarity) reaches `level`
     /// grey levels, keeping the components that overlap the current mask, and repaints the mask.
-    pub fn refine(
+    pub fn refine<const W: usize>(
         &mut self,
         chip: &ChipView,
         target: &Target,
         level: f32,
         margin: u16,
-        mask: &mut ChipMask,
+        mask: &mut BitMask<W>,
     ) -> Result<Target, SegmentError> {
         let region = target
             .moments
@@ -204,7 +204,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Segmenter<MAX_RUNS, MAX_LAB
         })
     }
 
-    fn paint(&self, roots: &[u16], mask: &mut ChipMask) {
+    fn paint<const W: usize>(&self, roots: &[u16], mask: &mut BitMask<W>) {
         for run in self.labeler.runs() {
             if roots.contains(&self.labeler.root(run.label)) {
                 mask.set_run(usize::from(run.y), usize::from(run.x0), usize::from(run.x1));

@@ -2,7 +2,7 @@
 
 use super::prior::{PriorShape, for_each_set};
 use crate::capacity::SHAPE_BOUNDARY_POINTS;
-use crate::mask::ChipMask;
+use crate::mask::BitMask;
 use nalgebra::Vector2;
 
 /// Up to [`SHAPE_BOUNDARY_POINTS`] points on the prior's outline, chip px.
@@ -36,7 +36,7 @@ impl Boundary {
     /// gives one point half a pixel outwards from its centre (towards the unset neighbours), so
     /// the points lie on the pixel edges of the silhouette. A longer outline than the capacity is
     /// taken every k-th pixel, in raster order.
-    pub fn collect(&mut self, prior: &ChipMask, shape: &PriorShape) {
+    pub fn collect<const W: usize>(&mut self, prior: &BitMask<W>, shape: &PriorShape) {
         let [x0, x1, y0, y1] = shape.bbox;
         let window = [x0, x1 + 1, y0, y1 + 1];
         let mut total = 0usize;
@@ -65,7 +65,7 @@ impl Boundary {
 /// For a set pixel (x, y) with an unset 4-neighbour (pixels outside the mask count as unset):
 /// the unit direction towards its unset neighbours, or zero where they cancel out (a line one
 /// pixel thin); `None` for an interior pixel.
-fn outward(mask: &ChipMask, x: usize, y: usize) -> Option<Vector2<f32>> {
+fn outward<const W: usize>(mask: &BitMask<W>, x: usize, y: usize) -> Option<Vector2<f32>> {
     let unset = |dx: i64, dy: i64| -> f32 {
         let (nx, ny) = (x as i64 + dx, y as i64 + dy);
         let inside = nx >= 0 && ny >= 0 && mask.get(nx as usize, ny as usize);
@@ -83,6 +83,7 @@ fn outward(mask: &ChipMask, x: usize, y: usize) -> Option<Vector2<f32>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mask::ChipMask;
 
     #[test]
     fn outline_of_a_rectangle_lies_on_its_pixel_edges() {

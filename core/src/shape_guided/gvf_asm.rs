@@ -16,7 +16,7 @@ use super::prior::PriorShape;
 use super::similarity::SimilarityFit;
 use crate::capacity::SHAPE_GRID_CELLS;
 use crate::chip::ChipView;
-use crate::mask::ChipMask;
+use crate::mask::BitMask;
 
 /// GVF-ASM's tunables.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -97,10 +97,10 @@ impl GvfAsm {
     }
 
     /// Runs Algorithm 1 for `prior` (measured as `shape`) on `chip`.
-    pub fn run(
+    pub fn run<const W: usize>(
         &mut self,
         chip: &ChipView,
-        prior: &ChipMask,
+        prior: &BitMask<W>,
         shape: &PriorShape,
         config: &GvfAsmConfig,
     ) -> Result<GvfAsmResult, ShapeGuidedError> {
@@ -177,6 +177,7 @@ impl GvfAsm {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mask::ChipMask;
     use nalgebra::Vector2;
 
     /// A 96 x 64 chip, sky 190, body 70, of a `len` x `wid` px bar centred at `centre`, with

@@ -15,6 +15,7 @@
 
 pub mod affine;
 pub mod boundary;
+pub mod feedback;
 pub mod grid;
 pub mod gvf;
 pub mod gvf_asm;
@@ -26,12 +27,13 @@ pub mod sis_cut;
 pub mod warp;
 
 pub use affine::{Affine2, AffineParams};
+pub use feedback::{LoopOutcome, LoopStop};
 pub use gvf_asm::{GvfAsm, GvfAsmConfig, GvfAsmResult};
 pub use prior::PriorShape;
 pub use sis_cut::{SisCut, SisCutConfig, SisCutResult};
 
 use crate::chip::ChipView;
-use crate::mask::ChipMask;
+use crate::mask::BitMask;
 use warp::{WarpError, warp_prior};
 
 /// A shape-guided segmentation method.
@@ -155,13 +157,13 @@ impl ShapeGuided {
     /// Segments `chip` guided by `prior` (a chip-sized mask of the model's silhouette) with
     /// `method`, writing the moved prior into `out` (resized to the chip). On an error `out`
     /// is left empty or unchanged.
-    pub fn refine(
+    pub fn refine<const W: usize>(
         &mut self,
         method: Method,
         config: &ShapeGuidedConfig,
         chip: &ChipView,
-        prior: &ChipMask,
-        out: &mut ChipMask,
+        prior: &BitMask<W>,
+        out: &mut BitMask<W>,
     ) -> Result<Refinement, ShapeGuidedError> {
         if prior.width() != chip.width() || prior.height() != chip.height() {
             return Err(ShapeGuidedError::SizeMismatch);
@@ -209,6 +211,7 @@ impl ShapeGuided {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mask::ChipMask;
 
     #[test]
     fn scratch_fits_the_firmware_budget() {

@@ -1,6 +1,6 @@
 //! The shape prior's placement: bounding box, centroid, principal axis and extents along it.
 
-use crate::mask::ChipMask;
+use crate::mask::BitMask;
 use nalgebra::{Matrix2, Vector2};
 
 /// Where the prior lies in the chip (px, pixel centres at integers).
@@ -21,7 +21,7 @@ pub struct PriorShape {
 
 impl PriorShape {
     /// Measures the set pixels of `prior`; `None` when it has none.
-    pub fn measure(prior: &ChipMask) -> Option<PriorShape> {
+    pub fn measure<const W: usize>(prior: &BitMask<W>) -> Option<PriorShape> {
         let (mut n, mut sx, mut sy) = (0usize, 0.0f32, 0.0f32);
         let mut bbox = [usize::MAX, 0, usize::MAX, 0];
         for_each_set(prior, [0, prior.width(), 0, prior.height()], |x, y| {
@@ -101,7 +101,11 @@ impl PriorShape {
 
 /// Calls `f(x, y)` for every set pixel of `mask` in columns `window[0]..window[1]` and rows
 /// `window[2]..window[3]`.
-pub fn for_each_set(mask: &ChipMask, window: [usize; 4], mut f: impl FnMut(usize, usize)) {
+pub fn for_each_set<const W: usize>(
+    mask: &BitMask<W>,
+    window: [usize; 4],
+    mut f: impl FnMut(usize, usize),
+) {
     let [x0, x1, y0, y1] = window;
     for y in y0..y1.min(mask.height()) {
         for x in x0..x1.min(mask.width()) {
@@ -115,6 +119,7 @@ pub fn for_each_set(mask: &ChipMask, window: [usize; 4], mut f: impl FnMut(usize
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mask::ChipMask;
 
     #[test]
     fn measures_a_diagonal_bar() {

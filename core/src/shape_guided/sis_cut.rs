@@ -17,7 +17,7 @@ use super::nelder_mead::{self, NelderMeadConfig};
 use super::prior::PriorShape;
 use crate::capacity::SHAPE_GRID_CELLS;
 use crate::chip::ChipView;
-use crate::mask::ChipMask;
+use crate::mask::BitMask;
 
 /// SIS-Cut's tunables.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -118,10 +118,10 @@ impl SisCut {
     }
 
     /// Runs Algorithm 2 for `prior` (measured as `shape`) on `chip`.
-    pub fn run(
+    pub fn run<const W: usize>(
         &mut self,
         chip: &ChipView,
-        prior: &ChipMask,
+        prior: &BitMask<W>,
         shape: &PriorShape,
         config: &SisCutConfig,
     ) -> Result<SisCutResult, ShapeGuidedError> {
@@ -188,7 +188,7 @@ impl SisCut {
 
     /// Labels the grid's cells: the prior's pixel nearest each cell makes it foreground; cells
     /// within `ring_px` of the foreground (3-4 chamfer distance) are the ring.
-    fn label(&mut self, prior: &ChipMask, grid: &Grid, ring_px: f32) {
+    fn label<const W: usize>(&mut self, prior: &BitMask<W>, grid: &Grid, ring_px: f32) {
         let (w, h) = (grid.width(), grid.height());
         for j in 0..h {
             for i in 0..w {
@@ -304,6 +304,7 @@ fn initial_steps(shape: &PriorShape, probe_px: f32) -> [f32; 7] {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mask::ChipMask;
     use nalgebra::Vector2;
 
     /// The label of the cell nearest chip position `p`.

@@ -3,7 +3,7 @@
 
 use super::affine::Affine2;
 use super::prior::PriorShape;
-use crate::mask::{ChipMask, MaskTooLarge};
+use crate::mask::{BitMask, MaskTooLarge};
 use nalgebra::Vector2;
 
 /// Why a warp could not be drawn.
@@ -16,11 +16,11 @@ pub enum WarpError {
 }
 
 /// Writes `transform(prior)` into `out` (resized to the prior's size); returns its set pixels.
-pub fn warp_prior(
-    prior: &ChipMask,
+pub fn warp_prior<const W: usize>(
+    prior: &BitMask<W>,
     shape: &PriorShape,
     transform: &Affine2,
-    out: &mut ChipMask,
+    out: &mut BitMask<W>,
 ) -> Result<usize, WarpError> {
     let inverse = transform.inverse().ok_or(WarpError::Singular)?;
     let (w, h) = (prior.width(), prior.height());
@@ -60,6 +60,7 @@ pub fn warp_prior(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mask::ChipMask;
     use nalgebra::Matrix2;
 
     fn rectangle(x0: usize, x1: usize, y0: usize, y1: usize) -> ChipMask {
