@@ -28,6 +28,7 @@ pub mod config;
 pub mod extremes;
 pub mod lut;
 pub mod mask;
+pub mod math;
 pub mod model;
 pub mod pipeline;
 pub mod pose;

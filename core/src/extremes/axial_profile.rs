@@ -5,7 +5,7 @@
 //! bin holds the silhouette's width there in px; blur moves no contrast across the axis, so the
 //! profile is the true width profile blurred only along the axis.
 
-use super::Axis;
+use super::{Axis, row_span};
 use crate::capacity::PROFILE_BINS;
 use crate::chip::ChipView;
 use crate::segment::background::Background;
@@ -48,8 +48,10 @@ impl WidthProfile {
         let y_lo = (cy - extent).max(0.0) as usize;
         let y_hi = ((cy + extent).max(0.0) as usize + 1).min(chip.height());
         let scale = 1.0 / (contrast.max(1e-6) * bin);
+        let along = (start - bin, start + (bins as f32 + 1.0) * bin);
         for y in y_lo..y_hi {
-            chip.for_each_in_span(y, x_lo, x_hi, |x, v| {
+            let (x0, x1) = row_span(axis.centre, axis.dir, y, along, band, (x_lo, x_hi));
+            chip.for_each_in_span(y, x0, x1, |x, v| {
                 let (along, across) = axis.local(x as f32, y as f32);
                 if libm::fabsf(across) > band {
                     return;

@@ -10,7 +10,9 @@
 //! giving the diameter `d` in px (blur-free: the box edges sit where the blurred profile crosses
 //! half the contrast), the contrast `C0` at the axis, the blur `sigma` and the axis offset `s0`.
 
+use super::row_span;
 use crate::chip::ChipView;
+use crate::math::{self, normal};
 use crate::segment::background::Background;
 use crate::segment::select::Shape;
 use nalgebra::{SMatrix, SVector};
@@ -107,7 +109,15 @@ pub fn bin(
     let y_lo = (cy - reach).max(0.0) as usize;
     let y_hi = ((cy + reach).max(0.0) as usize + 1).min(chip.height());
     for y in y_lo..y_hi {
-        chip.for_each_in_span(y, x_lo, x_hi, |x, v| {
+        let (x0, x1) = row_span(
+            shape.centre,
+            shape.axis,
+            y,
+            (stretch.t0, stretch.t1),
+            half_width,
+            (x_lo, x_hi),
+        );
+        chip.for_each_in_span(y, x0, x1, |x, v| {
             let (along, across) = shape.local(x as f32, y as f32);
             if along < stretch.t0 || along >= stretch.t1 || libm::fabsf(across) >= half_width {
                 return;
@@ -232,8 +242,8 @@ fn model(s: f32, p: &Params) -> (f32, Params) {
     let x = s - s0;
     let u1 = (x + 0.5 * d) / sigma;
     let u2 = (x - 0.5 * d) / sigma;
-    let box_ = normal_cdf(u1) - normal_cdf(u2);
-    let (g1, g2) = (normal_pdf(u1), normal_pdf(u2));
+    let ((cdf1, g1), (cdf2, g2)) = (normal::cdf_pdf(u1), normal::cdf_pdf(u2));
+    let box_ = cdf1 - cdf2;
     let amplitude = c0 + c1 * x;
     let value = b + amplitude * box_;
     let gradient = Params::from([
@@ -260,18 +270,8 @@ fn evaluate(
         let (value, g) = model(s, p);
         let r = v - value;
         cost += w * r * r;
-        jtj += g * g.transpose() * w;
-        jtr += g * (w * r);
+        math::accumulate(&mut jtj, &mut jtr, &g, w, r);
     }
+    jtj.fill_lower_triangle_with_upper_triangle();
     (cost, jtj, jtr)
-}
-
-/// Standard normal cumulative distribution.
-pub fn normal_cdf(u: f32) -> f32 {
-    0.5 * (1.0 + libm::erff(u * core::f32::consts::FRAC_1_SQRT_2))
-}
-
-/// Standard normal density.
-pub fn normal_pdf(u: f32) -> f32 {
-    0.398_942_3 * libm::expf(-0.5 * u * u)
 }

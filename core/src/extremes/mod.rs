@@ -50,6 +50,43 @@ impl Axis {
     }
 }
 
+/// The columns `x_range` (`start..end`) of row `y`, narrowed to those whose signed distances
+/// along and across the line through `centre` with unit direction `dir` may lie within `along`
+/// (`min, max`) and within `across` of it, px: a superset by a pixel either side, so that a
+/// per-pixel test over the span selects the same pixels as over the whole range, without
+/// visiting the rest of a slanted stretch's bounding box.
+pub fn row_span(
+    centre: (f32, f32),
+    dir: (f32, f32),
+    y: usize,
+    along: (f32, f32),
+    across: f32,
+    x_range: (usize, usize),
+) -> (usize, usize) {
+    let dy = y as f32 - centre.1;
+    let (mut lo, mut hi) = (x_range.0 as f32, x_range.1 as f32);
+    // Distance = slope (x - centre.0) + offset, within min..max.
+    for (slope, offset, min, max) in [
+        (dir.0, dy * dir.1, along.0, along.1),
+        (-dir.1, dy * dir.0, -across, across),
+    ] {
+        if !(libm::fabsf(slope) >= 1e-3) {
+            continue; // nearly constant along the row (or NaN): no narrowing
+        }
+        let a = (min - offset) / slope + centre.0;
+        let b = (max - offset) / slope + centre.0;
+        let (a, b) = if a <= b { (a, b) } else { (b, a) };
+        if a <= b {
+            lo = lo.max(a - 1.0);
+            hi = hi.min(b + 2.0);
+        }
+    }
+    if !(lo < hi) {
+        return (x_range.0, x_range.0);
+    }
+    ((lo as usize).max(x_range.0), (hi as usize).min(x_range.1))
+}
+
 /// Image measurements of the silhouette.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

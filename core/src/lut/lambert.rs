@@ -12,7 +12,8 @@
 //! too far out and over-estimates the diameter by 10-15 % on shaded bodies at 5-8 px.
 
 use crate::extremes::cross_profile::Binned;
-use crate::extremes::cross_profile::{CrossSection, normal_cdf, normal_pdf};
+use crate::extremes::cross_profile::CrossSection;
+use crate::math::{self, normal};
 use nalgebra::{SMatrix, SVector};
 
 /// Slices of the section.
@@ -82,8 +83,7 @@ impl Slices {
         let mut z = [0.0f32; INTERVALS + 1];
         for i in 0..=INTERVALS {
             z[i] = (s - s0 - r * self.edges[i]) / sigma;
-            cdf[i] = normal_cdf(z[i]);
-            pdf[i] = normal_pdf(z[i]);
+            (cdf[i], pdf[i]) = normal::cdf_pdf(z[i]);
         }
         let mut g = Params::zeros();
         let mut value = b;
@@ -102,33 +102,37 @@ impl Slices {
         (value, g)
     }
 
-    fn cost(&self, binned: &Binned, p: &Params) -> f32 {
-        binned
-            .points()
-            .map(|(s, v, w)| {
-                let r = v - self.model(s, p).0;
-                w * r * r
-            })
-            .sum()
+    /// The weighted squared residual and the normal equations (`JᵀWJ`, `JᵀWr`) at `p`, from
+    /// one evaluation of the model per point; `c2`'s column is zero unless `free_c2`.
+    fn evaluate(&self, binned: &Binned, p: &Params, free_c2: bool) -> Evaluation {
+        let mut cost = 0.0f32;
+        let mut jtj = SMatrix::<f32, 7, 7>::zeros();
+        let mut jtr = Params::zeros();
+        for (s, v, w) in binned.points() {
+            let (value, mut g) = self.model(s, p);
+            if !free_c2 {
+                g[3] = 0.0;
+            }
+            let r = v - value;
+            cost += w * r * r;
+            math::accumulate(&mut jtj, &mut jtr, &g, w, r);
+        }
+        jtj.fill_lower_triangle_with_upper_triangle();
+        (cost, jtj, jtr)
     }
 }
+
+/// The cost and normal equations at a point of the parameter space.
+type Evaluation = (f32, SMatrix<f32, 7, 7>, Params);
 
 /// Levenberg-Marquardt from `p`; `c2` stays fixed unless `free_c2`. Returns the parameters and
 /// their cost.
 fn minimize(slices: &Slices, binned: &Binned, mut p: Params, free_c2: bool) -> (Params, f32) {
-    let mut cost = slices.cost(binned, &p);
     let mut lambda = 1e-2f32;
+    // The cost and normal equations at `p`, carried over from an accepted trial.
+    let mut at_p = slices.evaluate(binned, &p, free_c2);
     for _ in 0..MAX_ITERATIONS {
-        let mut jtj = SMatrix::<f32, 7, 7>::zeros();
-        let mut jtr = Params::zeros();
-        for (s, v, w) in binned.points() {
-            let (value, mut g) = slices.model(s, &p);
-            if !free_c2 {
-                g[3] = 0.0;
-            }
-            jtj += g * g.transpose() * w;
-            jtr += g * (w * (v - value));
-        }
+        let (cost, jtj, jtr) = at_p;
         let mut damped = jtj;
         for k in 0..7 {
             damped[(k, k)] += lambda * jtj[(k, k)].max(1e-9);
@@ -140,11 +144,12 @@ fn minimize(slices: &Slices, binned: &Binned, mut p: Params, free_c2: bool) -> (
         let mut trial = p + step;
         trial[5] = trial[5].max(0.1);
         trial[6] = trial[6].clamp(0.2, binned.half_width);
-        let trial_cost = slices.cost(binned, &trial);
+        let at_trial = slices.evaluate(binned, &trial, free_c2);
+        let trial_cost = at_trial.0;
         if trial_cost.is_finite() && trial_cost <= cost {
             let converged = (cost - trial_cost) <= 1e-6 * cost.max(1e-12);
             p = trial;
-            cost = trial_cost;
+            at_p = at_trial;
             lambda = (lambda * 0.3).max(1e-7);
             if converged {
                 break;
@@ -156,7 +161,7 @@ fn minimize(slices: &Slices, binned: &Binned, mut p: Params, free_c2: bool) -> (
             }
         }
     }
-    (p, cost)
+    (p, at_p.0)
 }
 
 /// Fits the shaded section to `binned`, starting from the box fit `start` of the same pixels.

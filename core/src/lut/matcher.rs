@@ -5,10 +5,10 @@
 //! axis (blur moves no contrast across it). An entry predicts it as `k (v_hi - v_lo)((t - t0) /
 //! k)`, `k` the scale in px per body diameter and `t0` the body origin along the axis, blurred
 //! along by the PSF. For each candidate entry `k` and `t0` are fitted by Gauss-Newton (`t0` only
-//! when the range fixes `k`), and the entries are searched coarse to fine: tilts around the
+//! when the range fixes `k`), with the derivatives of the entry's piecewise-linear width, and the entries are searched coarse to fine: tilts around the
 //! closed form's, then rolls, then the neighbouring tilts for a parabolic refinement.
 
-use super::table::{Entry, Table};
+use super::table::{Entry, MAX_STATIONS, Table};
 use crate::extremes::axial_profile::WidthProfile;
 
 /// Gauss-Hermite nodes (in sigma) and weights of the along-axis blur.
@@ -75,15 +75,75 @@ pub struct Match {
     pub rms_px: f32,
 }
 
-impl Measured<'_> {
-    fn predicted(&self, entry: &Entry, px_per_d: f32, origin_t: f32, t: f32) -> f32 {
-        let mut sum = 0.0;
-        for (node, weight) in BLUR_NODES {
-            let u = (t + node * self.sigma_px - origin_t) / px_per_d;
-            let (lo, hi) = entry.edges_at(u);
-            sum += weight * (hi - lo);
+/// An entry's width `v_hi - v_lo` at its stations, read once per fit for the many
+/// interpolations of the fit.
+struct Widths {
+    at: [f32; MAX_STATIONS],
+    /// Last station index.
+    last: usize,
+    /// The entry's extent along the axis, `D`.
+    lo: f32,
+    hi: f32,
+    /// Stations per `D`.
+    per_d: f32,
+}
+
+impl Widths {
+    fn of(entry: &Entry) -> Widths {
+        let (lo, hi) = entry.u_range();
+        let stations = entry.stations().min(MAX_STATIONS);
+        let mut at = [0.0f32; MAX_STATIONS];
+        for (s, w) in at.iter_mut().enumerate().take(stations) {
+            let (v_lo, v_hi) = entry.edges(s);
+            *w = v_hi - v_lo;
         }
-        sum * px_per_d
+        let usable = stations >= 2 && hi > lo;
+        Widths {
+            at,
+            last: if usable { stations - 1 } else { 0 },
+            lo,
+            hi,
+            per_d: if usable {
+                (stations - 1) as f32 / (hi - lo)
+            } else {
+                0.0
+            },
+        }
+    }
+
+    /// The width at `u` `D` along the axis and its slope, linear between stations; zero outside.
+    #[inline]
+    fn at(&self, u: f32) -> (f32, f32) {
+        if self.last == 0 || !(u >= self.lo && u <= self.hi) {
+            return (0.0, 0.0);
+        }
+        let position = (u - self.lo) * self.per_d;
+        let i = (position as usize).min(self.last - 1);
+        let (Some(&a), Some(&b)) = (self.at.get(i), self.at.get(i + 1)) else {
+            return (0.0, 0.0);
+        };
+        let rise = b - a;
+        (a + (position - i as f32) * rise, rise * self.per_d)
+    }
+}
+
+/// The cost of a placement, and its gradient and Gauss-Newton matrix in (px_per_d, origin_t).
+type Evaluation = (f32, [f32; 2], [[f32; 2]; 2]);
+
+impl Measured<'_> {
+    /// The predicted width at `t` px along the axis, px, and its derivatives in `px_per_d` and
+    /// `origin_t`, for an entry's `widths` at scale `k` px per `D` (`inv_k` its inverse) and
+    /// origin `t0` px.
+    fn predicted(&self, widths: &Widths, k: f32, inv_k: f32, t0: f32, t: f32) -> (f32, [f32; 2]) {
+        let (mut value, mut dk, mut dt) = (0.0f32, 0.0f32, 0.0f32);
+        for (node, weight) in BLUR_NODES {
+            let u = (t + node * self.sigma_px - t0) * inv_k;
+            let (w, slope) = widths.at(u);
+            value += weight * w;
+            dk += weight * (w - u * slope);
+            dt -= weight * slope;
+        }
+        (value * k, [dk, dt])
     }
 
     /// The extreme-point residuals (measured minus the entry's nose and tail) and their
@@ -96,72 +156,45 @@ impl Measured<'_> {
         ]
     }
 
-    /// Cost, and its gradient and Gauss-Newton matrix in (px_per_d, origin_t).
-    fn evaluate(
-        &self,
-        entry: &Entry,
-        cos_tilt: f32,
-        k: f32,
-        t0: f32,
-    ) -> (f32, [f32; 2], [[f32; 2]; 2]) {
-        let (dk, dt) = (1e-3 * k, 0.05);
+    /// Robust cost, and its gradient and Gauss-Newton matrix in (px_per_d, origin_t), from one
+    /// interpolation of the entry per blur node and bin (analytic derivatives).
+    fn evaluate(&self, widths: &Widths, cos_tilt: f32, k: f32, t0: f32) -> Evaluation {
         let (mut cost, mut g, mut h) = (0.0f32, [0.0f32; 2], [[0.0f32; 2]; 2]);
-        for (r, j) in self.end_residuals(cos_tilt, k, t0) {
-            cost += self.end_weight * r * r;
-            for a in 0..2 {
-                g[a] += self.end_weight * j[a] * r;
-                for b in 0..2 {
-                    h[a][b] += self.end_weight * j[a] * j[b];
-                }
-            }
-        }
-        for i in self.bins.0..self.bins.1 {
-            let t = self.profile.t_of(i);
-            let measured = self.profile.at(i);
-            let p = self.predicted(entry, k, t0, t);
-            let r = measured - p;
-            let weight = if libm::fabsf(r) <= HUBER_PX {
-                1.0
-            } else {
-                HUBER_PX / libm::fabsf(r)
-            };
-            cost += weight * r * r;
-            let jk = (self.predicted(entry, k + dk, t0, t) - p) / dk;
-            let jt = (self.predicted(entry, k, t0 + dt, t) - p) / dt;
-            let j = [jk, jt];
+        let mut add = |weight: f32, r: f32, j: [f32; 2]| {
             for a in 0..2 {
                 g[a] += weight * j[a] * r;
                 for b in 0..2 {
                     h[a][b] += weight * j[a] * j[b];
                 }
             }
+        };
+        for (r, j) in self.end_residuals(cos_tilt, k, t0) {
+            cost += self.end_weight * r * r;
+            add(self.end_weight, r, j);
+        }
+        let inv_k = 1.0 / k;
+        for i in self.bins.0..self.bins.1 {
+            let (p, j) = self.predicted(widths, k, inv_k, t0, self.profile.t_of(i));
+            let r = self.profile.at(i) - p;
+            let a = libm::fabsf(r);
+            // Huber: the weight times r² is r² within HUBER_PX, HUBER_PX |r| beyond.
+            let weight = if a <= HUBER_PX { 1.0 } else { HUBER_PX / a };
+            cost += weight * r * r;
+            add(weight, r, j);
         }
         (cost, g, h)
     }
 
-    fn cost(&self, entry: &Entry, cos_tilt: f32, k: f32, t0: f32) -> f32 {
-        let ends: f32 = self
-            .end_residuals(cos_tilt, k, t0)
-            .iter()
-            .map(|(r, _)| self.end_weight * r * r)
-            .sum();
-        ends + (self.bins.0..self.bins.1)
-            .map(|i| {
-                let r = self.profile.at(i) - self.predicted(entry, k, t0, self.profile.t_of(i));
-                let a = libm::fabsf(r);
-                if a <= HUBER_PX { r * r } else { HUBER_PX * a }
-            })
-            .sum::<f32>()
-    }
-
     /// Fits scale (unless `fixed_scale`) and origin of `entry`, from `start`.
     pub fn fit(&self, entry: &Entry, cos_tilt: f32, start: Fit, fixed_scale: bool) -> Fit {
+        let widths = Widths::of(entry);
+        let mut at_best = self.evaluate(&widths, cos_tilt, start.px_per_d, start.origin_t);
         let mut best = Fit {
-            cost: self.cost(entry, cos_tilt, start.px_per_d, start.origin_t),
+            cost: at_best.0,
             ..start
         };
         for _ in 0..ITERATIONS {
-            let (_, g, h) = self.evaluate(entry, cos_tilt, best.px_per_d, best.origin_t);
+            let (_, g, h) = at_best;
             let step = if fixed_scale {
                 (h[1][1] > 0.0).then(|| [0.0, g[1] / h[1][1]])
             } else {
@@ -182,11 +215,13 @@ impl Measured<'_> {
                 origin_t: best.origin_t + st,
                 cost: 0.0,
             };
-            let cost = self.cost(entry, cos_tilt, trial.px_per_d, trial.origin_t);
+            let at_trial = self.evaluate(&widths, cos_tilt, trial.px_per_d, trial.origin_t);
+            let cost = at_trial.0;
             if !(cost.is_finite() && cost < best.cost && trial.px_per_d > 0.0) {
                 break;
             }
             best = Fit { cost, ..trial };
+            at_best = at_trial;
         }
         best
     }

@@ -168,15 +168,36 @@ impl Background {
         for (tx, c) in centres.iter_mut().enumerate().take(self.tiles_x) {
             *c = self.level(tx, y0) * (1.0 - wy) + self.level(tx, y1) * wy;
         }
+        // Linear between neighbouring centres, flat beyond the outer ones: walked segment by
+        // segment, so that a pixel costs a multiply-add.
+        let last = self.tiles_x.saturating_sub(1);
+        let level = |t: usize| centres.get(t).copied().unwrap_or(0.0);
+        let (first_centre, last_centre) =
+            (tile_centre(0, self.width), tile_centre(last, self.width));
+        let mut t = 0usize;
+        let segment = |t: usize| {
+            let (c0, c1) = (tile_centre(t, self.width), tile_centre(t + 1, self.width));
+            let slope = if c1 > c0 {
+                (level(t + 1) - level(t)) / (c1 - c0)
+            } else {
+                0.0
+            };
+            (c0, c1, level(t), slope)
+        };
+        let (mut c0, mut c1, mut left, mut slope) = segment(0);
         for (i, slot) in out.iter_mut().enumerate() {
-            let x = x_start + i;
-            let (t0, t1, w) = self
-                .columns
-                .get(x)
-                .unwrap_or_else(|| axis_weights(x as f32, self.tiles_x, self.width));
-            let left = centres.get(t0).copied().unwrap_or(0.0);
-            let right = centres.get(t1).copied().unwrap_or(0.0);
-            *slot = left + (right - left) * w;
+            let x = (x_start + i) as f32;
+            *slot = if last == 0 || x <= first_centre {
+                level(0)
+            } else if x >= last_centre {
+                level(last)
+            } else {
+                while x >= c1 && t + 1 < last {
+                    t += 1;
+                    (c0, c1, left, slope) = segment(t);
+                }
+                left + slope * (x - c0)
+            };
         }
     }
 
@@ -347,7 +368,8 @@ mod tests {
     }
 
     /// The per-pixel tables are a cache: the background they give is bit for bit the direct
-    /// interpolation between tile centres, at pixels and between them, in rows and points.
+    /// interpolation between tile centres, at pixels and between them; a row walked segment by
+    /// segment gives the same to rounding.
     #[test]
     fn tabulated_interpolation_is_the_direct_one() {
         let mut data = [0u8; 300 * 300];
@@ -369,7 +391,7 @@ mod tests {
                     let (x0, x1, wx) = axis_weights(x as f32, bg.tiles_x, bg.width);
                     let (left, right) = (column(x0, y0, y1, wy), column(x1, y0, y1, wy));
                     let direct_row = left + (right - left) * wx;
-                    assert_eq!(value.to_bits(), direct_row.to_bits(), "row at ({x},{y})");
+                    assert!((value - direct_row).abs() <= 1e-4, "row at ({x},{y})");
                     for dx in [0.0f32, 0.25, 0.5] {
                         let xf = x as f32 + dx;
                         let (x0, x1, wx) = axis_weights(xf, bg.tiles_x, bg.width);
