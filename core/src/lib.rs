@@ -16,6 +16,11 @@
 //! | Eq. 5 range smoothing, range trend, yaw choice | [`temporal`] | the chosen candidate |
 //!
 //! [`Pipeline::process`] runs them all.
+//!
+//! Cargo features: `shape-guided` (default) compiles the shape-guided segmentation and the
+//! pipeline's refinement loop (`Config.refine`), about 37 KiB of workspace and a third chip mask
+//! in every [`Pipeline`]; without it `Config.refine` is ignored. `defmt` derives `defmt::Format`
+//! on the public types, for firmware logging.
 #![no_std]
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]

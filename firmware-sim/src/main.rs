@@ -27,6 +27,7 @@ use defmt_semihosting as _;
 
 use host_io::{Args, IoError};
 use icount::InstructionCounter;
+use imade_core::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS, mask_words};
 use imade_core::lut::table::{Table, TableError};
 use imade_core::{FrameInput, FrameResult, Pipeline, ProjectileModel};
 use imade_pack::{ReadError, TableUse};
@@ -35,6 +36,13 @@ use static_cell::ConstStaticCell;
 
 /// The chip buffer, 16-bit words: 64 KiB, a 256 x 256 8-bit chip (or 256 x 128 16-bit).
 const CHIP_WORDS: usize = 32 * 1024;
+
+/// The largest chip side, px: the pipeline's masks are sized for it (8 KiB each).
+const CHIP_SIDE: usize = 256;
+
+/// The core's pipeline with masks for chips up to [`CHIP_SIDE`] (a larger chip is a capacity
+/// status).
+type FirmwarePipeline = Pipeline<DEFAULT_MAX_RUNS, DEFAULT_MAX_LABELS, { mask_words(CHIP_SIDE) }>;
 
 /// Length of the delay loop that checks the counter at start: `cortex_m::asm::delay(n)` runs
 /// n + 1 iterations of `subs` + `bne`.
@@ -126,7 +134,7 @@ fn run() -> Result<(), Error> {
     let chip = CHIP.try_take().ok_or(Error::Taken)?;
     // The pipeline lives in this stack frame, built in place (docs/firmware.md: a static one
     // would be built on the stack and copied, or cost its initial image in flash).
-    let pipeline = Pipeline::new(header.config(), header.camera, *model);
+    let pipeline = FirmwarePipeline::new(header.config(), header.camera, *model);
     let mut pipeline = match table {
         Some(table) => pipeline.with_table(table),
         None => pipeline,
@@ -169,7 +177,7 @@ fn table(choice: TableUse, model: &ProjectileModel) -> Result<Option<Table<'stat
 /// The measured call, kept out of line so that how the compiler inlines the pipeline does not
 /// depend on the code around it.
 #[inline(never)]
-fn process(pipeline: &mut Pipeline, frame: &FrameInput) -> FrameResult {
+fn process(pipeline: &mut FirmwarePipeline, frame: &FrameInput) -> FrameResult {
     pipeline.process(frame)
 }
 
