@@ -19,6 +19,9 @@ use nalgebra::{SMatrix, SVector};
 
 /// Bins of the cross-section profile.
 pub const CROSS_BINS: usize = 256;
+/// Bin width of the profile fitted by [`fit`], px: fine enough for a super-resolved edge, coarse
+/// enough to keep the fit's model evaluations few.
+const BIN_PX: f32 = 0.25;
 
 /// One stretch of the body along the axis, `t0..t1` px from the shape centre.
 #[derive(Debug, Clone, Copy)]
@@ -144,7 +147,7 @@ pub fn fit(
     half_width: f32,
 ) -> Option<CrossSection> {
     fit_binned(&bin(
-        chip, background, shape, class, stretch, half_width, 0.125,
+        chip, background, shape, class, stretch, half_width, BIN_PX,
     ))
 }
 

@@ -168,37 +168,31 @@ impl Background {
         for (tx, c) in centres.iter_mut().enumerate().take(self.tiles_x) {
             *c = self.level(tx, y0) * (1.0 - wy) + self.level(tx, y1) * wy;
         }
-        // Linear between neighbouring centres, flat beyond the outer ones: walked segment by
-        // segment, so that a pixel costs a multiply-add.
-        let last = self.tiles_x.saturating_sub(1);
+        // Linear between neighbouring centres, flat beyond the outer ones, filled piece by piece
+        // (a pixel costs a multiply-add): piece `t` holds the pixels after centre `t` up to
+        // centre `t + 1`; before the first centre and after the last the level is flat.
         let level = |t: usize| centres.get(t).copied().unwrap_or(0.0);
-        let (first_centre, last_centre) =
-            (tile_centre(0, self.width), tile_centre(last, self.width));
-        let mut t = 0usize;
-        let segment = |t: usize| {
+        let last = self.tiles_x.saturating_sub(1);
+        let after = |t: usize| tile_centre(t, self.width) as usize + 1;
+        let end = x_start + out.len();
+        let mut fill =
+            |from: usize, to: usize, value: Piece| fill_piece(out, x_start, from, to, value);
+        if last == 0 {
+            fill(x_start, end, (level(0), 0.0, 0.0));
+            return;
+        }
+        fill(x_start, after(0), (level(0), 0.0, 0.0));
+        for t in 0..last {
             let (c0, c1) = (tile_centre(t, self.width), tile_centre(t + 1, self.width));
+            let (left, right) = (level(t), level(t + 1));
             let slope = if c1 > c0 {
-                (level(t + 1) - level(t)) / (c1 - c0)
+                (right - left) / (c1 - c0)
             } else {
                 0.0
             };
-            (c0, c1, level(t), slope)
-        };
-        let (mut c0, mut c1, mut left, mut slope) = segment(0);
-        for (i, slot) in out.iter_mut().enumerate() {
-            let x = (x_start + i) as f32;
-            *slot = if last == 0 || x <= first_centre {
-                level(0)
-            } else if x >= last_centre {
-                level(last)
-            } else {
-                while x >= c1 && t + 1 < last {
-                    t += 1;
-                    (c0, c1, left, slope) = segment(t);
-                }
-                left + slope * (x - c0)
-            };
+            fill(after(t), after(t + 1), (left, slope, c0));
         }
+        fill(after(last), end, (level(last), 0.0, 0.0));
     }
 
     fn noise_sigma_of(&mut self, chip: &ChipView) -> f32 {
@@ -241,6 +235,22 @@ impl Background {
         }
         let diff_sigma = libm::sqrtf(sum / (count as f32 * 0.9955));
         (diff_sigma / core::f32::consts::SQRT_2).max(MIN_SIGMA)
+    }
+}
+
+/// A linear piece of a row's background: `level + slope (x - origin)` at column `x`.
+type Piece = (f32, f32, f32);
+
+/// Writes `piece` at the columns `from..to` of a row whose columns `x_start..` are `out`.
+fn fill_piece(out: &mut [f32], x_start: usize, from: usize, to: usize, piece: Piece) {
+    let (level, slope, origin) = piece;
+    let (a, b) = (from.max(x_start), to.min(x_start + out.len()));
+    if let Some(slots) = out.get_mut(a.saturating_sub(x_start)..b.saturating_sub(x_start)) {
+        let mut x = a as f32;
+        for slot in slots {
+            *slot = level + slope * (x - origin);
+            x += 1.0;
+        }
     }
 }
 

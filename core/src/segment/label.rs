@@ -203,46 +203,45 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
         self.moments.clear();
         let x_start = usize::from(region.x0);
         let x_end = usize::from(region.x1).min(chip.width());
-        let mut bg_row = [0.0f32; MAX_CHIP_SIDE];
-        let Some(bg) = bg_row.get_mut(..x_end.saturating_sub(x_start)) else {
+        // Per row: the background, then each pixel's residual and class (a tight loop), then
+        // the runs of equal nonzero class with their sums.
+        let mut residual_row = [0.0f32; MAX_CHIP_SIDE];
+        let mut class_row = [0i8; MAX_CHIP_SIDE];
+        let width = x_end.saturating_sub(x_start);
+        let (Some(residuals), Some(classes)) =
+            (residual_row.get_mut(..width), class_row.get_mut(..width))
+        else {
             return Ok(());
         };
         let mut prev = 0..0;
         for y in usize::from(region.y0)..usize::from(region.y1).min(chip.height()) {
-            background.fill_row(y, x_start, bg);
-            let row_start = self.runs.len();
-            let mut open: Option<(u16, i8, f32, u64)> = None; // (x0, class, sum r, sum v)
-            let mut failure = None;
-            let mut close = |labeler: &mut Self, x0: u16, x1: u16, class: i8, r: f32, v: u64| {
-                if failure.is_none()
-                    && let Err(e) = labeler.push_run(y as u16, x0, x1, class, r, v, prev.clone())
-                {
-                    failure = Some(e);
-                }
-            };
+            background.fill_row(y, x_start, residuals);
             chip.for_each_in_span(y, x_start, x_end, |x, value| {
-                let v = f32::from(value);
-                let r = v - bg.get(x - x_start).copied().unwrap_or(v);
-                let class = classify(r);
-                match open {
-                    Some((x0, c, sr, sv)) if c == class => {
-                        open = Some((x0, c, sr + r, sv + u64::from(value)));
-                    }
-                    _ => {
-                        if let Some((x0, c, sr, sv)) = open.take() {
-                            close(self, x0, x as u16 - 1, c, sr, sv);
-                        }
-                        if class != 0 {
-                            open = Some((x as u16, class, r, u64::from(value)));
-                        }
-                    }
+                let i = x - x_start;
+                if let (Some(r), Some(c)) = (residuals.get_mut(i), classes.get_mut(i)) {
+                    *r = f32::from(value) - *r;
+                    *c = classify(*r);
                 }
             });
-            if let Some((x0, c, sr, sv)) = open {
-                close(self, x0, x_end as u16 - 1, c, sr, sv);
-            }
-            if let Some(e) = failure {
-                return Err(e);
+            let row_start = self.runs.len();
+            let mut i = 0usize;
+            while i < width {
+                let class = classes.get(i).copied().unwrap_or(0);
+                if class == 0 {
+                    i += 1;
+                    continue;
+                }
+                let first = i;
+                while i < width && classes.get(i).copied() == Some(class) {
+                    i += 1;
+                }
+                let sum_r: f32 = residuals.get(first..i).map_or(0.0, |r| r.iter().sum());
+                let mut sum_v = 0u64;
+                chip.for_each_in_span(y, x_start + first, x_start + i, |_, v| {
+                    sum_v += u64::from(v)
+                });
+                let (x0, x1) = ((x_start + first) as u16, (x_start + i - 1) as u16);
+                self.push_run(y as u16, x0, x1, class, sum_r, sum_v, prev.clone())?;
             }
             prev = row_start..self.runs.len();
         }
