@@ -11,13 +11,13 @@
 use super::table::{Entry, MAX_STATIONS, Table};
 use crate::extremes::axial_profile::WidthProfile;
 
-/// Gauss-Hermite nodes (in sigma) and weights of the along-axis blur.
-const BLUR_NODES: [(f32, f32); 5] = [
-    (0.0, 0.533_333_3),
-    (1.355_626_2, 0.222_075_9),
-    (-1.355_626_2, 0.222_075_9),
-    (2.856_97, 0.011_257_4),
-    (-2.856_97, 0.011_257_4),
+/// Gauss-Hermite nodes (in sigma) and weights of the along-axis blur: the three-point rule
+/// (exact for cubics; the five-point rule cost 40 % more and moved no result beyond the tests'
+/// bounds).
+const BLUR_NODES: [(f32, f32); 3] = [
+    (0.0, 0.666_666_7),
+    (1.732_050_8, 0.166_666_67),
+    (-1.732_050_8, 0.166_666_67),
 ];
 /// Gauss-Newton iterations per entry.
 const ITERATIONS: usize = 4;
@@ -250,15 +250,25 @@ pub fn search(
         let cos_tilt = libm::cosf(table.tilt_deg(i) * crate::pose::RAD);
         measured.fit(&table.entry(i, j), cos_tilt, from, fixed_scale)
     };
-    // 1. Tilts around the closed form's, at a middle roll.
-    let mut best: Option<(usize, usize, Fit)> = None;
-    for i in lo..=hi {
+    // 1. Tilts around the closed form's, at a middle roll: every other one, then the two
+    //    beside the best of those.
+    let mut best: Option<(usize, Fit)> = None;
+    let consider = |best: &mut Option<(usize, Fit)>, i: usize| {
         let fit = fit_at(i, mid_roll, start);
-        if best.is_none_or(|(_, _, b)| fit.cost < b.cost) {
-            best = Some((i, mid_roll, fit));
+        if best.is_none_or(|(_, b)| fit.cost < b.cost) {
+            *best = Some((i, fit));
+        }
+    };
+    for i in (lo..=hi).step_by(2) {
+        consider(&mut best, i);
+    }
+    let (coarse, _) = best?;
+    for i in [coarse.wrapping_sub(1), coarse + 1] {
+        if (lo..=hi).contains(&i) {
+            consider(&mut best, i);
         }
     }
-    let (tilt, _, fit) = best?;
+    let (tilt, fit) = best?;
     // 2. Rolls at that tilt.
     let mut worst_cost = 0.0f32;
     let mut best_roll = (mid_roll, fit);
