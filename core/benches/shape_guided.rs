@@ -1,15 +1,28 @@
 //! Time per frame of each shape-guided segmentation method (the source paper's Table 2 reports
-//! GVF-ASM at 0.12 fps and SIS-Cut at 0.18 fps in Matlab) on a synthetic 256 x 256 chip of the
-//! reference projectile at 1 km (about 138 px long, as in the Table 1 clip), with a prior drawn
-//! at a wrong placement: 3 px off, 6 % too large and turned by 4 deg.
+//! GVF-ASM at 0.12 fps and SIS-Cut at 0.18 fps in Matlab):
+//!
+//! - `shape_guided/<method>`: the method alone on a synthetic 256 x 256 chip of the reference
+//!   projectile at 1 km (about 138 px long, as in the Table 1 clip), with a prior drawn at a wrong
+//!   placement: 3 px off, 6 % too large and turned by 4 deg;
+//! - `frame_refine/<method>`: the whole frame (`Pipeline::process` with the bundled table and
+//!   `Config.refine` = the method, `none` included), cycling through the bundled `table1-test`
+//!   clip (`IMADE_BENCH_CLIP` names another).
+//!
+//! Times are the benchmark thread's CPU time, one core.
 //!
 //! `cargo bench -p imade-core --bench shape_guided`
 
+// Shared with the other benchmarks; not every item is used here.
+#[allow(dead_code)]
+mod common;
+
+use common::cpu::ThreadCpuTime;
 use criterion::{Criterion, criterion_group, criterion_main};
 use imade_core::lut::render::{Placement, View, draw};
 use imade_core::shape_guided::{Method, ShapeGuided, ShapeGuidedConfig};
-use imade_core::{ChipMask, ChipView, REF_1378X80};
+use imade_core::{ChipMask, ChipView, Config, Pipeline, REF_1378X80, RefineConfig, RefineMethod};
 use std::hint::black_box;
+use std::time::Duration;
 
 /// Chip side, px.
 const SIDE: usize = 256;
@@ -76,7 +89,7 @@ fn scene() -> (Vec<u8>, ChipMask) {
     (pixels, prior)
 }
 
-fn bench(c: &mut Criterion) {
+fn bench(c: &mut Criterion<ThreadCpuTime>) {
     let (pixels, prior) = scene();
     let chip = ChipView::gray8(&pixels, SIDE, SIDE, SIDE, 896, 896).expect("chip");
     let config = ShapeGuidedConfig::DEFAULT;
@@ -101,5 +114,40 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench);
+fn frame_refine(c: &mut Criterion<ThreadCpuTime>) {
+    let fixture = common::load();
+    let table = fixture
+        .table
+        .expect("the clip's projectile has a bundled table");
+    let mut group = c.benchmark_group("frame_refine");
+    group.sample_size(20);
+    for method in RefineMethod::ALL {
+        group.bench_function(method.as_str(), |b| {
+            let config = Config {
+                refine: RefineConfig {
+                    method,
+                    ..RefineConfig::DEFAULT
+                },
+                ..Config::DEFAULT
+            };
+            let pipeline = Pipeline::new(config, fixture.camera, fixture.model);
+            let mut pipeline: Box<Pipeline> = Box::new(pipeline.with_table(table));
+            let mut frames = fixture.frames.iter().cycle();
+            b.iter(|| {
+                let frame = frames.next().expect("a clip with frames");
+                black_box(pipeline.process(&black_box(frame.input())))
+            });
+        });
+    }
+    group.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default()
+        .with_measurement(ThreadCpuTime::default())
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(4));
+    targets = bench, frame_refine
+}
 criterion_main!(benches);
