@@ -147,7 +147,7 @@ fn minimize(slices: &Slices, binned: &Binned, mut p: Params, free_c2: bool) -> (
         let at_trial = slices.evaluate(binned, &trial, free_c2);
         let trial_cost = at_trial.0;
         if trial_cost.is_finite() && trial_cost <= cost {
-            let converged = (cost - trial_cost) <= 1e-6 * cost.max(1e-12);
+            let converged = (cost - trial_cost) <= 1e-5 * cost.max(1e-12);
             p = trial;
             at_p = at_trial;
             lambda = (lambda * 0.3).max(1e-7);
