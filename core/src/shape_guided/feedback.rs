@@ -186,3 +186,136 @@ pub fn judge(current: &Refined, next: &Refined, config: &RefineConfig) -> Result
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lut::lambert::LambertSection;
+    use crate::lut::matcher::Match;
+    use crate::lut::render::{Placement, View};
+    use crate::model::REF_1378X80;
+
+    const CAMERA: Camera = Camera {
+        fx: 100_000.0,
+        fy: 100_000.0,
+        cx: 1023.5,
+        cy: 1023.5,
+    };
+    const ORIGIN: (i32, i32) = (896, 896);
+
+    /// A silhouette along +x through (128, 128) on the chip at [`ORIGIN`].
+    fn silhouette() -> Silhouette {
+        Silhouette {
+            axis: Axis {
+                centre: (128.0, 128.0),
+                dir: (1.0, 0.0),
+            },
+            nose_t: 60.0,
+            tail_t: -64.0,
+            diameter_px: 8.0,
+            contrast: 50.0,
+            sigma_px: 0.8,
+            nose_evidence: 1.0,
+        }
+    }
+
+    /// A match with its nose tip at chip (190, 128) and tail base at (62, 128), residual `rms_px`
+    /// and tilt `tilt_deg`.
+    fn matched(tilt_deg: f32, rms_px: f32, shift_px: f32) -> Refined {
+        let ends = [(190.0 + shift_px, 128.0), (62.0, 128.0)]
+            .map(|(x, y)| (x + ORIGIN.0 as f32, y + ORIGIN.1 as f32));
+        let to = |(x, y): (f32, f32)| Vector2::new(x, y);
+        Refined {
+            solution: closed_form::from_ends(to(ends[0]), to(ends[1]), &CAMERA, 1.378, 1000.0),
+            range_m: 1000.0,
+            matched: Match {
+                tilt_deg,
+                roll_deg: 0.0,
+                roll_confidence: 0.0,
+                px_per_d: 8.0,
+                origin_t: 0.0,
+                rms_px,
+            },
+            section: LambertSection {
+                diameter_px: 8.0,
+                mean_contrast: 50.0,
+                sigma_px: 0.8,
+                offset_px: 0.0,
+            },
+            view: View {
+                tilt_deg,
+                roll_deg: 0.0,
+            },
+            placement: Placement {
+                origin: (126.0, 128.0),
+                dir: (1.0, 0.0),
+                px_per_unit: 8.0,
+            },
+            ends,
+        }
+    }
+
+    #[test]
+    fn a_translation_moves_the_axis_and_the_corrected_ends_are_the_moved_ends() {
+        let shift = Vector2::new(3.0, -2.0);
+        let transform = Affine2::about(Vector2::zeros(), nalgebra::Matrix2::identity(), shift);
+        let sil = silhouette();
+        let first = matched(20.0, 1.0, 0.0);
+        let moved = moved_input(&sil, &first, &transform, ORIGIN, &CAMERA, &REF_1378X80)
+            .expect("a finite move");
+        let m = moved.silhouette;
+        assert!((m.axis.dir.0 - 1.0).abs() < 1e-6 && m.axis.dir.1.abs() < 1e-6);
+        assert!((m.axis.centre.0 - 131.0).abs() < 1e-4 && (m.axis.centre.1 - 126.0).abs() < 1e-4);
+        assert_eq!(m.diameter_px, sil.diameter_px);
+        // What the table match will take as the measured ends: the matched ends, moved.
+        let aspect = moved.closed.aspect_deg * RAD;
+        let px_per_m = first.section.diameter_px / REF_1378X80.diameter_m;
+        let (nose, tail) = closed_form::corrected_ends(
+            &m,
+            &REF_1378X80,
+            libm::sinf(aspect),
+            libm::cosf(aspect),
+            px_per_m,
+        );
+        assert!((m.axis.point(nose).0 - 193.0).abs() < 1e-3, "nose {nose}");
+        assert!((m.axis.point(tail).0 - 65.0).abs() < 1e-3, "tail {tail}");
+        // The closed form of the moved ends: the same length, so the same aspect.
+        assert!((moved.closed.aspect_deg - first.solution.aspect_deg).abs() < 0.05);
+    }
+
+    #[test]
+    fn a_collapsing_transform_gives_no_input() {
+        let transform = Affine2 {
+            linear: [[0.0, 0.0], [0.0, 0.0]],
+            offset: [10.0, 10.0],
+        };
+        let moved = moved_input(
+            &silhouette(),
+            &matched(20.0, 1.0, 0.0),
+            &transform,
+            ORIGIN,
+            &CAMERA,
+            &REF_1378X80,
+        );
+        assert_eq!(moved, None);
+    }
+
+    #[test]
+    fn the_stop_rule_keeps_only_agreeing_matches_that_fit_no_worse() {
+        let limits = RefineConfig::DEFAULT;
+        let current = matched(20.0, 1.0, 0.0);
+        assert_eq!(judge(&current, &matched(24.0, 0.9, 2.0), &limits), Ok(()));
+        assert_eq!(judge(&current, &matched(20.0, 1.0, 0.0), &limits), Ok(()));
+        let tilted = matched(26.0, 0.5, 0.0);
+        assert_eq!(judge(&current, &tilted, &limits), Err(LoopStop::Disagrees));
+        let moved = matched(20.0, 0.5, 3.5);
+        assert_eq!(judge(&current, &moved, &limits), Err(LoopStop::Disagrees));
+        let worse = matched(20.0, 1.01, 0.0);
+        assert_eq!(
+            judge(&current, &worse, &limits),
+            Err(LoopStop::WorseResidual)
+        );
+        let nan = matched(20.0, f32::NAN, 0.0);
+        assert_eq!(judge(&current, &nan, &limits), Err(LoopStop::WorseResidual));
+    }
+}
