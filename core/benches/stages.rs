@@ -6,6 +6,8 @@
 //! `cargo bench -p imade-core --bench stages`; `core/benches/compare-opencv` runs it beside
 //! OpenCV's naive pipeline and prints the ratios.
 
+// Shared with the worst-case benchmarks; not every item is used here.
+#[allow(dead_code)]
 mod common;
 
 use common::cpu::ThreadCpuTime;

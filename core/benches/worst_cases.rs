@@ -5,7 +5,9 @@
 //! table where there is one. Each case's status is printed once; the slowest case bounds the
 //! frame time on the host.
 //!
-//! `cargo bench -p imade-core --bench worst_cases`
+//! `cargo bench -p imade-core --bench worst_cases`; with `IMADE_WORST_CLIP=DIR` the chips of
+//! the fixture's size and depth are also written to DIR as an imade-clip/1 clip, one frame each,
+//! for `firmware-sim/run` to count their instructions on the Cortex-M4F.
 
 // Shared with the stage benchmarks; not every item is used here.
 #[allow(dead_code)]
@@ -15,8 +17,9 @@ use common::Fixture;
 use common::cpu::ThreadCpuTime;
 use criterion::{Criterion, criterion_group, criterion_main};
 use imade_core::{ChipView, Config, FrameInput, Pipeline};
-use imade_host::clip::ChipPixels;
+use imade_host::clip::{ChipImage, ChipPixels, ClipWriter, FrameRow};
 use std::hint::black_box;
+use std::path::Path;
 use std::time::Duration;
 
 /// A worst-case chip.
@@ -130,9 +133,44 @@ fn cases(fixture: &Fixture) -> Vec<Case> {
     ]
 }
 
+/// Writes the cases of the fixture's chip size and depth as a clip in `dir`, one frame each.
+fn write_clip(dir: &Path, fixture: &Fixture, cases: &[Case]) -> anyhow::Result<()> {
+    let mut writer = ClipWriter::create(dir, &fixture.meta)?;
+    let like = &fixture.frames[fixture.frames.len() / 2];
+    let same_kind = |c: &&Case| {
+        (c.width as u32, c.height as u32) == (like.image.width, like.image.height)
+            && matches!(c.pixels, ChipPixels::U8(_))
+    };
+    for (k, case) in cases.iter().filter(same_kind).enumerate() {
+        let row = FrameRow {
+            line: k as u64 + 2,
+            frame: k as u64,
+            time_s: k as f64 / 30.0,
+            chip: String::new(),
+            chip_x0: i64::from(like.origin.0),
+            chip_y0: i64::from(like.origin.1),
+            range_m: None,
+            truth: None,
+            gt_mask: None,
+        };
+        let chip = ChipImage {
+            width: case.width as u32,
+            height: case.height as u32,
+            pixels: case.pixels.clone(),
+        };
+        writer.write_frame(&row, &chip, None)?;
+        eprintln!("worst clip frame {k}: {}", case.name);
+    }
+    writer.finish()?;
+    Ok(())
+}
+
 fn worst_cases(c: &mut Criterion<ThreadCpuTime>) {
     let fixture = common::load();
     let cases = cases(&fixture);
+    if let Some(dir) = std::env::var_os("IMADE_WORST_CLIP") {
+        write_clip(Path::new(&dir), &fixture, &cases).unwrap_or_else(|e| panic!("{e:#}"));
+    }
     let mut group = c.benchmark_group("worst");
     for case in &cases {
         let pipeline = Pipeline::new(Config::DEFAULT, fixture.camera, fixture.model);

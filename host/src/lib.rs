@@ -4,9 +4,10 @@
 //! - [`demo`]: `imade demo`, the main job: the Table 1 test clip run, scored and plotted.
 //! - [`eval`]: `imade eval`, results against ground truth beside the paper's figures.
 //! - [`exit`]: the binary's exit codes.
-//! - [`plot`]: `imade plot`, figures like the paper's.
+//! - [`lut`]: `imade lut`, the silhouette tables of the core's table match.
 //! - [`run`]: `imade run`, the core's pipeline over clips; [`summary`] its JSON summary, [`stages`]
 //!   the segmentation stages whose masks it saves.
+//! - [`plot`]: `imade plot`, figures like the paper's.
 //! - [`pack`]: `imade pack`, a clip packed for the firmware (`firmware-sim/`).
 //! - [`sim`]: the clip simulator (`imade simulate`), with its own renderer, independent of the core.
 

@@ -6,7 +6,7 @@ pub mod cpu;
 
 use imade_core::lut::table::Table;
 use imade_core::{Camera, ChipView, FrameInput, ProjectileModel, built_in_model};
-use imade_host::clip::{ChipImage, Clip, load_chip};
+use imade_host::clip::{ChipImage, Clip, ClipMeta, load_chip};
 use std::path::PathBuf;
 
 /// One decoded frame of the clip.
@@ -41,6 +41,8 @@ impl Frame {
 
 /// A clip decoded into memory.
 pub struct Fixture {
+    /// The clip's metadata.
+    pub meta: ClipMeta,
     /// Camera intrinsics.
     pub camera: Camera,
     /// The projectile.
@@ -87,6 +89,7 @@ pub fn load() -> Fixture {
         })
         .collect();
     Fixture {
+        meta: clip.meta.clone(),
         camera,
         model,
         table,
