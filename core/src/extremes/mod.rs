@@ -70,7 +70,7 @@ pub fn row_span(
         (dir.0, dy * dir.1, along.0, along.1),
         (-dir.1, dy * dir.0, -across, across),
     ] {
-        if !(libm::fabsf(slope) >= 1e-3) {
+        if slope.is_nan() || libm::fabsf(slope) < 1e-3 {
             continue; // nearly constant along the row (or NaN): no narrowing
         }
         let a = (min - offset) / slope + centre.0;
@@ -81,7 +81,7 @@ pub fn row_span(
             hi = hi.min(b + 2.0);
         }
     }
-    if !(lo < hi) {
+    if lo >= hi {
         return (x_range.0, x_range.0);
     }
     ((lo as usize).max(x_range.0), (hi as usize).min(x_range.1))

@@ -113,7 +113,7 @@ const fn erf_abs(x: f64) -> f64 {
         term *= 2.0 * x * x / (2.0 * n + 1.0);
         sum += term;
     }
-    1.128_379_167_095_512_6 * exp_neg(x * x) * sum
+    core::f64::consts::FRAC_2_SQRT_PI * exp_neg(x * x) * sum
 }
 
 #[cfg(test)]
