@@ -226,6 +226,11 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
             let row_start = self.runs.len();
             let mut i = 0usize;
             while i < width {
+                // The sky, four pixels at a time.
+                if classes.get(i..i + 4) == Some(&[0i8; 4][..]) {
+                    i += 4;
+                    continue;
+                }
                 let class = classes.get(i).copied().unwrap_or(0);
                 if class == 0 {
                     i += 1;
