@@ -333,3 +333,51 @@ fn the_range_trend_resolves_the_yaw_choice() {
         );
     }
 }
+
+#[test]
+fn the_range_sensor_counts_on_frames_without_a_target() {
+    // Four frames of bare sky with a range sensor reading a shrinking range, then the body
+    // nose towards the camera: the sensor's trend has already resolved the choice (with
+    // `min_trend_frames` 4 and five readings), so the first pose takes the right candidate
+    // rather than the default "away" one.
+    let (yaw, rate) = (-120.0, -150.0);
+    let mut pipeline = new_pipeline(Config::DEFAULT);
+    let sky = vec![170u8; N * N];
+    let range_at = |k: u64| 1200.0 + rate * k as f64 / 30.0;
+    for k in 0..4 {
+        let r = process(
+            &mut pipeline,
+            &sky,
+            (896, 896),
+            50.0 + k as f64 / 30.0,
+            Some(range_at(k) as f32),
+        );
+        assert_eq!(r.status, Status::NoTarget);
+    }
+    let p = TruePose {
+        t: [2.0, -1.0, range_at(4)],
+        pitch_deg: 10.0,
+        yaw_deg: yaw,
+        roll_deg: 10.0,
+    };
+    let origin = origin_of(&p, (5, -3));
+    let (pixels, _) = chip_u8(
+        &TELESCOPE,
+        &p,
+        origin,
+        (N, N),
+        &style(170.0, 60.0),
+        &mut Rng(9),
+    );
+    let r = process(
+        &mut pipeline,
+        &pixels,
+        origin,
+        50.0 + 4.0 / 30.0,
+        Some(range_at(4) as f32),
+    );
+    assert_eq!(r.status, Status::Ok);
+    assert!(r.yaw_resolved, "{r:?}");
+    let error = imade_core::pose::wrap_deg(r.pose.yaw_deg - yaw as f32).abs();
+    assert!(error < 8.0, "chose {} for {yaw}", r.pose.yaw_deg);
+}

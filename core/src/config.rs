@@ -140,7 +140,7 @@ impl Config {
         mask_min_sigma: 2.0,
         tz_smoothing_r: 0.1,
         window_frames: 15,
-        min_trend_frames: 5,
+        min_trend_frames: 4,
         trend_sigma: 3.0,
         max_gap_s: 1.0,
         range_use: RangeUse::Auto,

@@ -273,6 +273,12 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         if !self.camera.is_valid() || !input.time_s.is_finite() {
             return FrameResult::failed(Status::BadInput);
         }
+        let t = self.temporal.frame_time(input.time_s, &self.config);
+        // A range sensor's reading is evidence of the range trend (and so of the yaw choice)
+        // whatever becomes of the image.
+        if let Some(r) = range {
+            self.temporal.push_range(t, r, &self.config);
+        }
         let chip = &input.chip;
         let aim = (0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
         let target = match self
@@ -343,13 +349,15 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             .filter(|_| range.is_none())
             .map(|r| r.range_m)
             .or(image_range);
-        let t = self.temporal.frame_time(input.time_s, &self.config);
-        let (range_m, measured) = match (range, image_range) {
-            (Some(r), _) => (r, r),
-            (None, Some(r)) => (self.temporal.smooth_range(t, r, &self.config), r),
+        let range_m = match (range, image_range) {
+            (Some(r), _) => r,
+            (None, Some(r)) => {
+                let smoothed = self.temporal.smooth_range(t, r, &self.config);
+                self.temporal.push_range(t, r, &self.config);
+                smoothed
+            }
             (None, None) => return FrameResult::failed(Status::Unmeasurable),
         };
-        self.temporal.push_range(t, measured, &self.config);
         self.temporal.set_nose_dir(silhouette.axis.dir);
         let solution = match &refined {
             Some(r) => r.at_range(&self.camera, &self.model, range_m),
