@@ -1,14 +1,13 @@
 //! `imade run`: the core's pipeline over recorded clips, in parallel across clips; one
 //! imade-results/1 CSV per clip (written atomically), optional per-stage masks, and a JSON summary.
 
-use crate::clip::{Clip, FrameRow, load_chip, save_mask, write_atomically};
+use crate::clip::{Clip, FrameRow, save_mask, write_atomically};
 use crate::exit::PartialFailure;
 use crate::stages::{STAGES, mask_file_name};
 use crate::summary::{ClipSummary, Problem, RunSummary, SUMMARY_FORMAT};
 use anyhow::{Context, bail};
 use imade_core::{
-    Camera, Config, FrameInput, Pipeline, RangeUse, RefineConfig, RefineMethod, Status,
-    built_in_model, results,
+    Config, FrameInput, Pipeline, RangeUse, RefineConfig, RefineMethod, Status, results,
 };
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -234,21 +233,8 @@ pub fn run_jobs(jobs: &[Job]) -> RunSummary {
 
 /// The pipeline for a clip's camera and projectile.
 fn pipeline_for(clip: &Clip, config: Config, lut: &str) -> anyhow::Result<Box<Pipeline>> {
-    let model = built_in_model(&clip.meta.projectile).with_context(|| {
-        format!(
-            "{}: unknown projectile {:?}",
-            clip.dir.join("clip.json").display(),
-            clip.meta.projectile
-        )
-    })?;
-    let c = &clip.meta.camera;
-    let camera = Camera {
-        fx: c.fx as f32,
-        fy: c.fy as f32,
-        cx: c.cx as f32,
-        cy: c.cy as f32,
-    };
-    let pipeline = Pipeline::new(config, camera, *model);
+    let model = clip.model()?;
+    let pipeline = Pipeline::new(config, clip.meta.camera.camera(), *model);
     Ok(Box::new(match crate::lut::table_for(lut, model)? {
         Some(table) => pipeline.with_table(table),
         None => pipeline,
@@ -377,24 +363,11 @@ fn process_frame(
     row: &FrameRow,
     pipeline: &mut Pipeline,
 ) -> anyhow::Result<imade_core::FrameResult> {
-    let path = clip.path_of(&row.chip);
-    let chip = load_chip(&path)?;
-    let expected = clip.meta.chip;
-    if (chip.width, chip.height) != (expected.width, expected.height) {
-        bail!(
-            "{}: chip is {}x{}, clip.json says {}x{}",
-            path.display(),
-            chip.width,
-            chip.height,
-            expected.width,
-            expected.height
-        );
-    }
-    let x0 = i32::try_from(row.chip_x0).context("chip_x0 out of range")?;
-    let y0 = i32::try_from(row.chip_y0).context("chip_y0 out of range")?;
+    let chip = clip.load_frame_chip(row)?;
+    // Checked when loaded.
     let view = chip
-        .view(x0, y0)
-        .map_err(|e| anyhow::anyhow!("{}: unusable chip: {e:?}", path.display()))?;
+        .view()
+        .map_err(|e| anyhow::anyhow!("unusable chip: {e:?}"))?;
     Ok(pipeline.process(&FrameInput {
         chip: view,
         time_s: row.time_s,
