@@ -515,13 +515,7 @@ struct LoopFrame {
 /// The pipeline with the bundled table and `method` over the Table 1 test clip.
 fn run_loop(method: RefineMethod, range_use: RangeUse) -> Vec<LoopFrame> {
     let clip = table1();
-    let c = clip.meta.camera;
-    let camera = Camera {
-        fx: c.fx as f32,
-        fy: c.fy as f32,
-        cx: c.cx as f32,
-        cy: c.cy as f32,
-    };
+    let camera = clip.meta.camera.camera();
     let config = Config {
         range_use,
         refine: RefineConfig {

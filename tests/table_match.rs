@@ -4,7 +4,7 @@
 
 use imade_core::lut::table::Table;
 use imade_core::pose::wrap_deg;
-use imade_core::{Camera, Config, FrameInput, Pipeline, RangeUse, Status, built_in_model};
+use imade_core::{Config, FrameInput, Pipeline, RangeUse, Status, built_in_model};
 use imade_host::clip;
 use std::path::Path;
 
@@ -15,13 +15,7 @@ fn run(table: bool, range: RangeUse) -> Vec<Errors> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/table1-test");
     let meta = clip::read_meta(&dir.join("clip.json")).unwrap();
     let model = built_in_model(&meta.projectile).unwrap();
-    let c = &meta.camera;
-    let camera = Camera {
-        fx: c.fx as f32,
-        fy: c.fy as f32,
-        cx: c.cx as f32,
-        cy: c.cy as f32,
-    };
+    let camera = meta.camera.camera();
     let config = Config {
         range_use: range,
         ..Config::DEFAULT

@@ -65,13 +65,7 @@ pub fn clip_dir() -> PathBuf {
 pub fn load() -> Fixture {
     let dir = clip_dir();
     let clip = Clip::open(&dir).unwrap_or_else(|e| panic!("{}: {e:#}", dir.display()));
-    let c = &clip.meta.camera;
-    let camera = Camera {
-        fx: c.fx as f32,
-        fy: c.fy as f32,
-        cx: c.cx as f32,
-        cy: c.cy as f32,
-    };
+    let camera = clip.meta.camera.camera();
     let model = *built_in_model(&clip.meta.projectile).expect("a built-in projectile");
     let table = imade_host::lut::table_for("bundled", &model).unwrap_or_else(|e| panic!("{e:#}"));
     let frames = clip
