@@ -128,6 +128,10 @@ pub struct Config {
     pub range_use: RangeUse,
     /// Shape-guided refinement of the table match.
     pub refine: RefineConfig,
+    /// Draw the shape prior ([`crate::Pipeline::prior`]) of every frame with a table match, for
+    /// display and evaluation (the results do not depend on it). The refinement loop draws it
+    /// whatever this says; the firmware, which displays nothing, turns it off.
+    pub shape_prior: bool,
 }
 
 impl Config {
@@ -145,6 +149,7 @@ impl Config {
         max_gap_s: 1.0,
         range_use: RangeUse::Auto,
         refine: RefineConfig::DEFAULT,
+        shape_prior: true,
     };
 }
 

@@ -6,7 +6,7 @@ use crate::camera::Camera;
 use crate::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS};
 use crate::chip::ChipView;
 use crate::closed_form::{self, ClosedForm};
-use crate::config::{Config, RangeUse};
+use crate::config::{Config, RangeUse, RefineMethod};
 use crate::extremes::{self, Silhouette};
 use crate::lut::matcher::Match;
 use crate::lut::table::Table;
@@ -339,8 +339,12 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             }
             _ => None,
         };
+        let needs_prior =
+            self.config.shape_prior || self.config.refine.method != RefineMethod::None;
         let refined = refined.map(|first| {
-            self.draw_prior(chip, &first);
+            if needs_prior {
+                self.draw_prior(chip, &first);
+            }
             self.refine_loop(chip, &silhouette, target.class, range, first)
         });
         // The range measured from the image: the matched scale's, else the diameter's.

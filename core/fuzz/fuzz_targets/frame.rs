@@ -7,7 +7,10 @@
 use arbitrary::Arbitrary;
 use imade_core::lut::table::Table;
 use imade_core::mask::ChipMask;
-use imade_core::{BodyPolarity, Camera, Config, FrameInput, Pipeline, REF_1378X80, RangeUse};
+use imade_core::{
+    BodyPolarity, Camera, Config, FrameInput, Pipeline, REF_1378X80, RangeUse, RefineConfig,
+    RefineMethod,
+};
 use imade_core_fuzz::{oracle, synth};
 use libfuzzer_sys::fuzz_target;
 use std::sync::OnceLock;
@@ -57,6 +60,9 @@ enum ConfigSpec {
         trend_sigma: f32,
         max_gap_s: f32,
         ignore_range: bool,
+        /// The refinement method, modulo 3 (the shape-guided loop).
+        refine: u8,
+        shape_prior: bool,
     },
 }
 
@@ -136,6 +142,8 @@ fn config(spec: &ConfigSpec) -> Config {
             trend_sigma,
             max_gap_s,
             ignore_range,
+            refine,
+            shape_prior,
         } => Config {
             detect_sigma,
             min_area_px,
@@ -148,6 +156,11 @@ fn config(spec: &ConfigSpec) -> Config {
             trend_sigma,
             max_gap_s,
             range_use: range_use(ignore_range),
+            refine: RefineConfig {
+                method: RefineMethod::ALL[usize::from(refine % 3)],
+                ..RefineConfig::DEFAULT
+            },
+            shape_prior,
         },
     }
 }
