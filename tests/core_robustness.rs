@@ -381,3 +381,45 @@ fn the_range_sensor_counts_on_frames_without_a_target() {
     let error = imade_core::pose::wrap_deg(r.pose.yaw_deg - yaw as f32).abs();
     assert!(error < 8.0, "chose {} for {yaw}", r.pose.yaw_deg);
 }
+
+#[test]
+fn clutter_that_fills_the_component_table_raises_the_threshold() {
+    // 100 dark 3 x 3 specks 25 grey levels deep (12 noise sigmas: over the 4.5 sigma detection
+    // threshold and over twice it, under four times it) around a body of contrast 110: at the
+    // first two thresholds more than MAX_COMPONENTS = 64 components reach the minimum area; at
+    // the third only the body does.
+    let p = pose(1200.0, 15.0, -65.0);
+    let origin = origin_of(&p, (9, -6));
+    let (mut pixels, _) = chip_u8(
+        &TELESCOPE,
+        &p,
+        origin,
+        (N, N),
+        &style(170.0, 60.0),
+        &mut Rng(21),
+    );
+    for k in 0..100 {
+        let (cx, cy) = (8 + (k % 10) * 25, 8 + (k / 10) * 25);
+        for y in cy..cy + 3 {
+            for x in cx..cx + 3 {
+                pixels[y * N + x] = pixels[y * N + x].saturating_sub(25);
+            }
+        }
+    }
+    let once = Config {
+        detect_retries: 0,
+        ..Config::DEFAULT
+    };
+    let r = process(&mut new_pipeline(once), &pixels, origin, 0.0, Some(1200.0));
+    assert_eq!(r.status, Status::Capacity);
+    assert_eq!(r.capacity, Some(CapacityKind::Components));
+    let r = process(
+        &mut new_pipeline(Config::DEFAULT),
+        &pixels,
+        origin,
+        0.0,
+        Some(1200.0),
+    );
+    assert_eq!(r.status, Status::Ok, "{r:?}");
+    assert!((r.pose.pitch_deg - 15.0).abs() < 1.0, "{r:?}");
+}

@@ -105,6 +105,9 @@ impl RefineConfig {
 pub struct Config {
     /// Detection threshold on the background-subtracted chip, in noise standard deviations.
     pub detect_sigma: f32,
+    /// Times the detection threshold is doubled and the chip labeled again when a table of the
+    /// labeler runs out (clutter); a `capacity` status only after the last.
+    pub detect_retries: u8,
     /// Smallest component kept for target selection, px.
     pub min_area_px: u32,
     /// The body's contrast polarity.
@@ -138,6 +141,7 @@ impl Config {
     /// The defaults.
     pub const DEFAULT: Config = Config {
         detect_sigma: 4.5,
+        detect_retries: 2,
         min_area_px: 6,
         polarity: BodyPolarity::Dark,
         mask_level: 0.5,

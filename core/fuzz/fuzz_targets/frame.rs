@@ -50,6 +50,7 @@ enum ConfigSpec {
     /// Every field from the input.
     Raw {
         detect_sigma: f32,
+        detect_retries: u8,
         min_area_px: u32,
         polarity: u8,
         mask_level: f32,
@@ -132,6 +133,7 @@ fn config(spec: &ConfigSpec) -> Config {
         },
         ConfigSpec::Raw {
             detect_sigma,
+            detect_retries,
             min_area_px,
             polarity: p,
             mask_level,
@@ -146,6 +148,7 @@ fn config(spec: &ConfigSpec) -> Config {
             shape_prior,
         } => Config {
             detect_sigma,
+            detect_retries: detect_retries % 4,
             min_area_px,
             polarity: polarity(p),
             mask_level,

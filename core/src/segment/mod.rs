@@ -106,7 +106,44 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Segmenter<MAX_RUNS, MAX_LAB
         mask.reset(chip.width(), chip.height())
             .map_err(|_| SegmentError::Capacity(CapacityKind::Mask))?;
         self.background.estimate(chip);
-        let threshold = config.detect_sigma * self.background.sigma();
+        // Clutter (a cloudy sky the sky model does not follow) can fill a table at the
+        // threshold; a target stands out at a higher one, so it is doubled and the chip labeled
+        // again, a few times at most.
+        let mut threshold = config.detect_sigma * self.background.sigma();
+        let mut retries = config.detect_retries;
+        let mut candidates = heapless::Vec::new();
+        loop {
+            match self.candidates(chip, threshold, config.min_area_px, &mut candidates) {
+                Err(SegmentError::Capacity(_)) if retries > 0 => {
+                    retries -= 1;
+                    threshold *= 2.0;
+                }
+                other => break other?,
+            }
+        }
+        let diag = libm::hypotf(chip.width() as f32, chip.height() as f32);
+        let selection = select::select(
+            &candidates,
+            self.background.sigma(),
+            aim,
+            diag,
+            config.polarity,
+        )
+        .ok_or(SegmentError::NoTarget)?;
+        self.paint(&selection.parts, mask);
+        Ok(target_of(&selection, candidates.len()))
+    }
+
+    /// Labels the whole chip at `threshold` grey levels from the sky, either side, and lists
+    /// the components of at least `min_area` px in `candidates`.
+    fn candidates(
+        &mut self,
+        chip: &ChipView,
+        threshold: f32,
+        min_area: u32,
+        candidates: &mut heapless::Vec<Candidate, MAX_COMPONENTS>,
+    ) -> Result<(), SegmentError> {
+        candidates.clear();
         let whole = Rect {
             x0: 0,
             y0: 0,
@@ -122,9 +159,8 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Segmenter<MAX_RUNS, MAX_LAB
                 0
             }
         })?;
-        let mut candidates: heapless::Vec<Candidate, MAX_COMPONENTS> = heapless::Vec::new();
         for (label, moments) in self.labeler.components() {
-            if moments.n >= config.min_area_px {
+            if moments.n >= min_area {
                 candidates
                     .push(Candidate {
                         label,
@@ -133,17 +169,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Segmenter<MAX_RUNS, MAX_LAB
                     .map_err(|_| SegmentError::Capacity(CapacityKind::Components))?;
             }
         }
-        let diag = libm::hypotf(chip.width() as f32, chip.height() as f32);
-        let selection = select::select(
-            &candidates,
-            self.background.sigma(),
-            aim,
-            diag,
-            config.polarity,
-        )
-        .ok_or(SegmentError::NoTarget)?;
-        self.paint(&selection.parts, mask);
-        Ok(target_of(&selection, candidates.len()))
+        Ok(())
     }
 
     /// Recuts the target's mask where its contrast (of the target's polarity) reaches `level`
