@@ -309,14 +309,23 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         let level = (self.config.mask_level * silhouette.contrast)
             .max(self.config.mask_min_sigma * background.sigma());
         let margin = (2.0 * silhouette.sigma_px + 3.0) as u16;
-        if let Err(SegmentError::Capacity(kind)) =
-            self.segmenter
-                .refine(chip, &target, level, margin, &mut self.mask)
+        let recut = match self
+            .segmenter
+            .refine(chip, &target, level, margin, &mut self.mask)
         {
-            return FrameResult {
-                capacity: Some(kind),
-                ..FrameResult::failed(Status::Capacity)
-            };
+            Ok(recut) => recut,
+            Err(SegmentError::Capacity(kind)) => {
+                return FrameResult {
+                    capacity: Some(kind),
+                    ..FrameResult::failed(Status::Capacity)
+                };
+            }
+            Err(SegmentError::NoTarget) => target,
+        };
+        // A silhouette that reaches the chip's edge has lost an end (or more): its extremes and
+        // scale would be those of a shorter body.
+        if recut.moments.bbox.touches_edge(chip.width(), chip.height()) {
+            return FrameResult::failed(Status::Unmeasurable);
         }
         let image_range = closed_form::range_from_diameter(&silhouette, &self.camera, &self.model);
         let refined = match (self.table, range.or(image_range)) {

@@ -47,6 +47,14 @@ impl Rect {
             y1: self.y1.saturating_add(margin).min(height as u16),
         }
     }
+
+    /// True when the rectangle reaches an edge of a `width` x `height` chip.
+    pub fn touches_edge(&self, width: usize, height: usize) -> bool {
+        self.x0 == 0
+            || self.y0 == 0
+            || usize::from(self.x1) >= width
+            || usize::from(self.y1) >= height
+    }
 }
 
 /// Pixel statistics of a label.
