@@ -30,6 +30,11 @@ fn pose(range: f64, pitch: f64, yaw: f64) -> TruePose {
     }
 }
 
+/// An N x N chip of the pose `p` cut at full-frame `origin`, and its half-coverage truth mask.
+fn render(p: &TruePose, origin: (i64, i64), style: &ChipStyle, seed: u64) -> (Vec<u8>, Vec<bool>) {
+    chip_u8(&TELESCOPE, p, origin, (N, N), style, &mut Rng(seed))
+}
+
 fn origin_of(p: &TruePose, jitter: (i64, i64)) -> (i64, i64) {
     let (u, v) = project(&TELESCOPE, p, [0.0; 3]);
     (
@@ -79,14 +84,7 @@ fn mask_matches_the_half_coverage_truth() {
     ] {
         let p = pose(range, pitch, yaw);
         let origin = origin_of(&p, (17, -22));
-        let (pixels, truth) = chip_u8(
-            &TELESCOPE,
-            &p,
-            origin,
-            (N, N),
-            &style(170.0, 60.0),
-            &mut Rng(7),
-        );
+        let (pixels, truth) = render(&p, origin, &style(170.0, 60.0), 7);
         let mut pipeline = new_pipeline(Config::DEFAULT);
         let result = process(&mut pipeline, &pixels, origin, 0.0, None);
         assert_eq!(result.status, Status::Ok);
@@ -104,14 +102,7 @@ fn mask_matches_the_half_coverage_truth() {
 fn rejects_a_bright_plume_behind_the_tail() {
     let p = pose(1200.0, 15.0, -75.0);
     let origin = origin_of(&p, (10, 12));
-    let (mut pixels, truth) = chip_u8(
-        &TELESCOPE,
-        &p,
-        origin,
-        (N, N),
-        &style(150.0, 60.0),
-        &mut Rng(3),
-    );
+    let (mut pixels, truth) = render(&p, origin, &style(150.0, 60.0), 3);
     // Plume: a Gaussian blob 1.5 body lengths aft of the origin, along the projected axis.
     let (tu, tv) = project(&TELESCOPE, &p, [-0.689, 0.0, 0.0]);
     let (nu, nv) = project(&TELESCOPE, &p, [0.689, 0.0, 0.0]);
@@ -145,14 +136,7 @@ fn rejects_a_bright_plume_behind_the_tail() {
 fn finds_a_bright_body_on_a_dark_sky() {
     let p = pose(1500.0, -10.0, 95.0);
     let origin = origin_of(&p, (-25, 5));
-    let (pixels, truth) = chip_u8(
-        &TELESCOPE,
-        &p,
-        origin,
-        (N, N),
-        &style(40.0, 200.0),
-        &mut Rng(11),
-    );
+    let (pixels, truth) = render(&p, origin, &style(40.0, 200.0), 11);
     let config = Config {
         polarity: BodyPolarity::Bright,
         ..Config::DEFAULT
@@ -174,7 +158,7 @@ fn merges_a_broken_silhouette() {
     let p = pose(1000.0, 5.0, -60.0);
     let origin = origin_of(&p, (0, 0));
     let sky = style(170.0, 60.0);
-    let (mut pixels, _) = chip_u8(&TELESCOPE, &p, origin, (N, N), &sky, &mut Rng(5));
+    let (mut pixels, _) = render(&p, origin, &sky, 5);
     let (u, _) = project(&TELESCOPE, &p, [0.1, 0.0, 0.0]);
     let column = (u - origin.0 as f64).round() as usize;
     for y in 0..N {
@@ -301,14 +285,7 @@ fn the_range_trend_resolves_the_yaw_choice() {
                 roll_deg: 10.0 * k as f64,
             };
             let origin = origin_of(&p, ((k * 7 % 31) as i64 - 15, (k * 5 % 23) as i64 - 11));
-            let (pixels, _) = chip_u8(
-                &TELESCOPE,
-                &p,
-                origin,
-                (N, N),
-                &style(170.0, 60.0),
-                &mut Rng(100 + k),
-            );
+            let (pixels, _) = render(&p, origin, &style(170.0, 60.0), 100 + k);
             let r = process(
                 &mut pipeline,
                 &pixels,
@@ -361,14 +338,7 @@ fn the_range_sensor_counts_on_frames_without_a_target() {
         roll_deg: 10.0,
     };
     let origin = origin_of(&p, (5, -3));
-    let (pixels, _) = chip_u8(
-        &TELESCOPE,
-        &p,
-        origin,
-        (N, N),
-        &style(170.0, 60.0),
-        &mut Rng(9),
-    );
+    let (pixels, _) = render(&p, origin, &style(170.0, 60.0), 9);
     let r = process(
         &mut pipeline,
         &pixels,
@@ -390,14 +360,7 @@ fn clutter_that_fills_the_component_table_raises_the_threshold() {
     // the third only the body does.
     let p = pose(1200.0, 15.0, -65.0);
     let origin = origin_of(&p, (9, -6));
-    let (mut pixels, _) = chip_u8(
-        &TELESCOPE,
-        &p,
-        origin,
-        (N, N),
-        &style(170.0, 60.0),
-        &mut Rng(21),
-    );
+    let (mut pixels, _) = render(&p, origin, &style(170.0, 60.0), 21);
     for k in 0..100 {
         let (cx, cy) = (8 + (k % 10) * 25, 8 + (k / 10) * 25);
         for y in cy..cy + 3 {
