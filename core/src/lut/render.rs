@@ -68,13 +68,25 @@ impl Placement {
     }
 }
 
-/// Fills one silhouette-frame triangle at `placement` (vertices rounded to pixel centres).
+/// Fills one silhouette-frame triangle at `placement` (vertices rounded to pixel centres). A
+/// triangle with a vertex more than [`MAX_EXTENT_PX`] from the target's origin is not drawn: a
+/// hostile table's edges can put one anywhere, and embedded-graphics' triangle arithmetic
+/// overflows i32 far out (found by fuzzing).
 pub fn fill_triangle<D: DrawTarget<Color = BinaryColor>>(
     target: &mut D,
     placement: &Placement,
     [a, b, c]: [(f32, f32); 3],
 ) -> Result<(), D::Error> {
-    Triangle::new(placement.pixel(a), placement.pixel(b), placement.pixel(c))
+    let corners = [a, b, c].map(|p| placement.pixel(p));
+    let bound = MAX_EXTENT_PX as u32;
+    if corners
+        .iter()
+        .any(|p| p.x.unsigned_abs() > bound || p.y.unsigned_abs() > bound)
+    {
+        return Ok(());
+    }
+    let [a, b, c] = corners;
+    Triangle::new(a, b, c)
         .into_styled(PrimitiveStyle::with_fill(BinaryColor::On))
         .draw(target)
 }
@@ -291,5 +303,31 @@ mod tests {
             );
             assert!(area == 0.0 || area.is_nan(), "{px_per_unit}: {area}");
         }
+    }
+
+    #[test]
+    fn a_triangle_reaching_past_the_extent_draws_nothing() {
+        let mut mask = BitMask::<{ crate::capacity::mask_words(64) }>::default();
+        mask.reset(64, 64).unwrap();
+        let placement = Placement {
+            origin: (32.0, 32.0),
+            dir: (1.0, 0.0),
+            px_per_unit: 10.0,
+        };
+        // A table edge 2e8 units out: the vertex lands near i32::MAX px.
+        fill_triangle(
+            &mut mask,
+            &placement,
+            [(-1.0, -1.0), (1.0, -1.0), (0.0, 2e8)],
+        )
+        .unwrap();
+        assert_eq!(mask.count(), 0);
+        fill_triangle(
+            &mut mask,
+            &placement,
+            [(-1.0, -1.0), (1.0, -1.0), (0.0, 2.0)],
+        )
+        .unwrap();
+        assert!(mask.count() > 0, "a triangle within the extent is drawn");
     }
 }
