@@ -69,9 +69,9 @@ impl Placement {
 }
 
 /// Fills one silhouette-frame triangle at `placement` (vertices rounded to pixel centres). A
-/// triangle with a vertex more than [`MAX_EXTENT_PX`] from the target's origin is not drawn: a
-/// hostile table's edges can put one anywhere, and embedded-graphics' triangle arithmetic
-/// overflows i32 far out (found by fuzzing).
+/// triangle with a vertex more than 16384 px (`MAX_EXTENT_PX`) from the target's origin is not
+/// drawn: a hostile table's edges can put one anywhere, and embedded-graphics' triangle
+/// arithmetic overflows i32 far out (found by fuzzing).
 pub fn fill_triangle<D: DrawTarget<Color = BinaryColor>>(
     target: &mut D,
     placement: &Placement,
