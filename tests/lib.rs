@@ -34,3 +34,23 @@ pub fn bundled_table() -> Table<'static> {
     static BYTES: &[u8] = include_bytes!("../fixtures/lut/ref-1378x80.lut");
     Table::parse_for(BYTES, &REF_1378X80).expect("the bundled table is valid")
 }
+
+/// A result's errors against the truth, normalized to 1 km (../shared/spec/geometry.md): Tx, Ty,
+/// Tz in m/km; pitch, the chosen yaw and the better of the two yaw candidates in deg/km.
+pub fn pose_errors(
+    result: &imade_core::FrameResult,
+    truth: &imade_host::clip::GroundTruth,
+) -> [f64; 6] {
+    let km = truth.tz_m / 1000.0;
+    let p = result.pose;
+    let angle = |a: f32, b: f64| imade_core::pose::wrap_deg(a - b as f32).abs() as f64 / km;
+    let yaw = angle(p.yaw_deg, truth.yaw_deg);
+    [
+        (f64::from(p.tx_m) - truth.tx_m).abs() / km,
+        (f64::from(p.ty_m) - truth.ty_m).abs() / km,
+        (f64::from(p.tz_m) - truth.tz_m).abs() / km,
+        angle(p.pitch_deg, truth.pitch_deg),
+        yaw,
+        yaw.min(angle(result.yaw_alt_deg, truth.yaw_deg)),
+    ]
+}

@@ -5,13 +5,13 @@
 //! the paper's Fig. 19 does. Run with `--nocapture` for the tables.
 
 use imade_core::lut::table::Table;
-use imade_core::pose::wrap_deg;
 use imade_core::shape_guided::{LoopOutcome, LoopStop, Method, ShapeGuided, ShapeGuidedConfig};
 use imade_core::{
     Camera, ChipMask, ChipView, Config, FrameInput, Pipeline, REF_1378X80, RangeUse, RefineConfig,
     RefineMethod, Status,
 };
 use imade_host::clip::{Clip, load_chip, load_mask};
+use imade_tests::pose_errors;
 use imade_tests::render::{
     ChipStyle, Intrinsics, Rng, TruePose, chip_u8, coverage, project, rotation,
 };
@@ -548,22 +548,10 @@ fn run_loop(method: RefineMethod, range_use: RangeUse) -> Vec<LoopFrame> {
         if result.status != Status::Ok {
             continue;
         }
-        let gt = row.truth.expect("ground truth");
-        let km = gt.tz_m / 1000.0;
-        let p = result.pose;
-        let angle = |a: f32, b: f64| wrap_deg(a - b as f32).abs() as f64 / km;
-        let yaw = angle(p.yaw_deg, gt.yaw_deg);
         let score = |m: &ChipMask| (m.count() > 0).then(|| iou(m, &truth, w));
         frames.push(LoopFrame {
             frame: row.frame,
-            errors: [
-                (p.tx_m as f64 - gt.tx_m).abs() / km,
-                (p.ty_m as f64 - gt.ty_m).abs() / km,
-                (p.tz_m as f64 - gt.tz_m).abs() / km,
-                angle(p.pitch_deg, gt.pitch_deg),
-                yaw,
-                yaw.min(angle(result.yaw_alt_deg, gt.yaw_deg)),
-            ],
+            errors: pose_errors(&result, &row.truth.expect("ground truth")),
             outcome: pipeline.refinement().copied(),
             ious: [
                 score(pipeline.mask()),

@@ -3,9 +3,9 @@
 //! where the closed form is weakest (unknown range).
 
 use imade_core::lut::table::Table;
-use imade_core::pose::wrap_deg;
 use imade_core::{Config, FrameInput, Pipeline, RangeUse, Status, built_in_model};
 use imade_host::clip;
+use imade_tests::pose_errors;
 use std::path::Path;
 
 /// Per-frame errors normalized to 1 km: Tx, Ty, Tz (m/km), pitch, chosen yaw, best yaw (deg/km).
@@ -39,19 +39,7 @@ fn run(table: bool, range: RangeUse) -> Vec<Errors> {
         if result.status != Status::Ok {
             continue;
         }
-        let gt = row.truth.unwrap();
-        let km = gt.tz_m / 1000.0;
-        let p = result.pose;
-        let angle = |a: f32, b: f64| wrap_deg(a - b as f32).abs() as f64 / km;
-        let yaw = angle(p.yaw_deg, gt.yaw_deg);
-        errors.push([
-            (p.tx_m as f64 - gt.tx_m).abs() / km,
-            (p.ty_m as f64 - gt.ty_m).abs() / km,
-            (p.tz_m as f64 - gt.tz_m).abs() / km,
-            angle(p.pitch_deg, gt.pitch_deg),
-            yaw,
-            yaw.min(angle(result.yaw_alt_deg, gt.yaw_deg)),
-        ]);
+        errors.push(pose_errors(&result, &row.truth.unwrap()));
     }
     errors
 }
