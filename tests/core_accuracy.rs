@@ -1,6 +1,6 @@
 //! The core against the independent ray-casting renderer: chips rendered from known poses are
-//! estimated back, and the errors, normalized to 1 km as in ../shared/spec/geometry.md, are
-//! bounded. Run with `--nocapture` to see the error table of the pose grid.
+//! estimated back, and the errors, normalized to 1 km as in `docs/geometry.md`, are bounded. Run
+//! with `--nocapture` to see the error table of the pose grid.
 
 use imade_core::lut::table::Table;
 use imade_core::{ChipView, pose::wrap_deg};

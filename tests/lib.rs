@@ -1,8 +1,8 @@
 //! Shared helpers of the cross-crate integration tests (the tests are the `[[test]]` targets).
 //!
-//! [`render`] is an exact ray-casting renderer of `ref-1378x80`, written from
-//! ../shared/spec/projectile.md and geometry.md in f64 without any code of the core, so that the
-//! core's estimates are checked against an independent truth.
+//! [`render`] is an exact ray-casting renderer of `ref-1378x80`, written from `docs/projectile.md`
+//! and `docs/geometry.md` in f64 without any code of the core, so that the core's estimates are
+//! checked against an independent truth.
 
 pub mod render;
 
@@ -35,7 +35,7 @@ pub fn bundled_table() -> Table<'static> {
     Table::parse_for(BYTES, &REF_1378X80).expect("the bundled table is valid")
 }
 
-/// A result's errors against the truth, normalized to 1 km (../shared/spec/geometry.md): Tx, Ty,
+/// A result's errors against the truth, normalized to 1 km (`docs/geometry.md`): Tx, Ty,
 /// Tz in m/km; pitch, the chosen yaw and the better of the two yaw candidates in deg/km.
 pub fn pose_errors(
     result: &imade_core::FrameResult,

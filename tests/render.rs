@@ -5,7 +5,7 @@
 //! minimised against the squared profile radius) and against the four fins (each a convex slab,
 //! clipped Cyrus-Beck style). Coverage is counted over `ss` x `ss` samples per pixel.
 
-/// Spec geometry (projectile.md), metres.
+/// Spec geometry (`docs/projectile.md`), metres.
 const HALF_LENGTH: f64 = 0.689;
 const RADIUS: f64 = 0.040;
 const NOSE_LENGTH: f64 = 0.240;
@@ -24,7 +24,7 @@ pub struct Intrinsics {
     pub cy: f64,
 }
 
-/// A true pose (geometry.md).
+/// A true pose (`docs/geometry.md`).
 #[derive(Debug, Clone, Copy)]
 pub struct TruePose {
     pub t: [f64; 3],

@@ -4,7 +4,7 @@ use anyhow::{Context, bail};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// Ground truth of one frame (simulated clips only), per ../shared/spec/geometry.md.
+/// Ground truth of one frame (simulated clips only), in the conventions of `docs/geometry.md`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct GroundTruth {
     /// Body-origin position in the camera frame, m.

@@ -1,5 +1,5 @@
-//! The `imade-clip/1` recorded-clip format (../shared/spec/clip-format.md): the one place it is
-//! parsed and written.
+//! The `imade-clip/1` recorded-clip format (`docs/formats.md`): the one place it is parsed and
+//! written.
 //!
 //! A clip is a folder with `clip.json` (camera and clip metadata), `frames.csv` (one row per frame)
 //! and the chips as 8-bit or 16-bit grayscale PNGs. Reading is per frame and lossless about errors:

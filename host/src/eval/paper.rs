@@ -1,4 +1,4 @@
-//! The source paper's published accuracy figures (../shared/reference/source-paper.md), the yard
+//! The source paper's published accuracy figures (the paper is cited in `README.md`), the yard
 //! stick of `imade eval`. Pose figures are "about" values of its abstract and Sec. 5.5, normalized
 //! to 1 km like ours; the IoU figures are the medians it quotes in Sec. 5.4.1 (Fig. 19).
 

@@ -1,4 +1,4 @@
-//! 1-km-normalized pose errors (../shared/spec/geometry.md): |estimate - truth| / (Tz_true / 1 km),
+//! 1-km-normalized pose errors (`docs/geometry.md`): |estimate - truth| / (Tz_true / 1 km),
 //! angle differences wrapped to (-180, 180].
 
 use super::paper::{Parameter, RangeCase, pose_accuracy};

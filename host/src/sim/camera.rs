@@ -1,7 +1,8 @@
 //! The simulated camera: pinhole intrinsics and an azimuth-elevation tracking mount.
 //!
-//! World frame W: east, north, up (x, y, z), metres. Camera frame C (geometry.md): +X right in the
-//! image, +Y down, +Z along the optical axis. The mount keeps the image's X axis level (no roll).
+//! World frame W: east, north, up (x, y, z), metres, the axes of the world frame E of
+//! `docs/geometry.md`. Camera frame C (`docs/geometry.md`): +X right in the image, +Y down, +Z
+//! along the optical axis. The mount keeps the image's X axis level (no roll).
 
 use super::math::{Mat3, Vec3};
 

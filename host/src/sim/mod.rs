@@ -4,8 +4,8 @@
 //!
 //! It shares no projection, pose or silhouette code with `imade-core`: it has its own camera
 //! ([`camera`]), pose convention ([`pose`]), mesh renderer ([`raster`], [`render`]) and f64 math
-//! ([`math`]), all tested against ../shared/spec/geometry.md directly, so that a bug in one cannot
-//! hide the same bug in the other.
+//! ([`math`]), all tested against the test vector of `docs/geometry.md` directly, so that a bug in
+//! one cannot hide the same bug in the other.
 //!
 //! Determinism: every random draw comes from a PCG stream keyed by the seed, a purpose and a frame
 //! number ([`random`]); transcendental functions come from the pure-Rust `libm`; no hash-map order

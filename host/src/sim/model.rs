@@ -1,5 +1,5 @@
 //! The projectile models the simulator can fly: the analytic reference projectile `ref-1378x80`
-//! of ../shared/spec/projectile.md, tessellated here, or any mesh file.
+//! of `docs/projectile.md`, tessellated here, or any mesh file.
 //!
 //! Body frame B: origin at the middle of the overall length, +x_B along the axis towards the nose;
 //! the fins point along +z_B, +y_B, -z_B, -y_B. s is the distance aft of the nose tip.
@@ -41,7 +41,7 @@ pub struct FinnedOgive {
     pub fin_thickness: f64,
 }
 
-/// The reference projectile `ref-1378x80` (projectile.md).
+/// The reference projectile `ref-1378x80` (`docs/projectile.md`).
 pub const REF_1378X80: FinnedOgive = FinnedOgive {
     length: 1.378,
     radius: 0.040,

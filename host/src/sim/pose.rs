@@ -1,4 +1,4 @@
-//! The camera-frame pose of ../shared/spec/geometry.md, implemented independently of the core.
+//! The camera-frame pose of `docs/geometry.md`, implemented independently of the core.
 //!
 //! `R_CB = P * Rz(yaw) * Ry(pitch) * Rx(roll)`, `P = [[0,1,0],[0,0,1],[1,0,0]]`: the aerospace
 //! yaw-pitch-roll sequence in the level frame L = (forward, right, down) = (+Z, +X, +Y) of C.
