@@ -4,7 +4,7 @@
 
 use imade_core::segment::CapacityKind;
 use imade_core::{
-    BodyPolarity, Camera, ChipView, Config, FrameInput, Pipeline, REF_1378X80, Status,
+    BodyPolarity, Camera, ChipView, Config, DetectConfig, FrameInput, Pipeline, REF_1378X80, Status,
 };
 use imade_tests::render::{ChipStyle, Rng, TruePose, chip_u8, project};
 use imade_tests::{TELESCOPE, core_camera};
@@ -138,7 +138,10 @@ fn finds_a_bright_body_on_a_dark_sky() {
     let origin = origin_of(&p, (-25, 5));
     let (pixels, truth) = render(&p, origin, &style(40.0, 200.0), 11);
     let config = Config {
-        polarity: BodyPolarity::Bright,
+        detect: DetectConfig {
+            polarity: BodyPolarity::Bright,
+            ..DetectConfig::DEFAULT
+        },
         ..Config::DEFAULT
     };
     let mut pipeline = new_pipeline(config);
@@ -370,7 +373,10 @@ fn clutter_that_fills_the_component_table_raises_the_threshold() {
         }
     }
     let once = Config {
-        detect_retries: 0,
+        detect: DetectConfig {
+            retries: 0,
+            ..DetectConfig::DEFAULT
+        },
         ..Config::DEFAULT
     };
     let r = process(&mut new_pipeline(once), &pixels, origin, 0.0, Some(1200.0));

@@ -2,15 +2,15 @@
 //! and pure-noise chips have no target; fine checkerboards overflow the run table and say so,
 //! painting nothing; a projectile on a clipped sky, a clipped bright body, the largest chip and
 //! the aimed one of two projectiles are measured; a body cut by the chip's border is refused.
-//! (Their time per frame is benchmarked in core/benches/worst_cases.rs.)
+//! (Their time per frame is benchmarked in tests/benches/worst_cases.rs.)
 //!
 //! The `#[ignore]`d tests state what the core does not do yet (found here, reported in
 //! docs/benchmarks.md): a larger second projectile gives an ok status with a wrong pose. `cargo test -- --ignored` runs them.
 
 use imade_core::segment::CapacityKind;
 use imade_core::{
-    BodyPolarity, ChipError, ChipView, Config, FrameInput, FrameResult, Pipeline, REF_1378X80,
-    Status,
+    BodyPolarity, ChipError, ChipView, Config, DetectConfig, FrameInput, FrameResult, Pipeline,
+    REF_1378X80, Status,
 };
 use imade_tests::render::{ChipStyle, Rng, TruePose, blur, chip_u8, coverage, project};
 use imade_tests::{TELESCOPE, core_camera};
@@ -191,7 +191,10 @@ fn clipped_skies_and_bodies_are_measured() {
         "the body is clipped"
     );
     let bright = Config {
-        polarity: BodyPolarity::Bright,
+        detect: DetectConfig {
+            polarity: BodyPolarity::Bright,
+            ..DetectConfig::DEFAULT
+        },
         ..Config::DEFAULT
     };
     let mut p = pipeline(bright);

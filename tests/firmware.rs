@@ -38,7 +38,7 @@ fn firmware_results_equal_the_hosts() -> anyhow::Result<()> {
         range: RangeArg::Auto,
         save_masks: false,
         lut: "bundled".into(),
-        refine: imade_core::RefineMethod::None,
+        refine: imade_host::run::RefineChoice(None),
     })?;
     let host_csv = host_dir.join("results.csv");
     let packed = dir.join("clip.pack");

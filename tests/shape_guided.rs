@@ -5,10 +5,11 @@
 //! the paper's Fig. 19 does. Run with `--nocapture` for the tables.
 
 use imade_core::lut::table::Table;
-use imade_core::shape_guided::{LoopOutcome, LoopStop, Method, ShapeGuided, ShapeGuidedConfig};
+use imade_core::shape_guided::{ShapeGuided, ShapeGuidedConfig};
+use imade_core::table_match::guided_loop::{LoopOutcome, LoopStop};
 use imade_core::{
-    Camera, ChipMask, ChipView, Config, FrameInput, Pipeline, REF_1378X80, RangeUse, RefineConfig,
-    RefineMethod, Status,
+    Camera, ChipMask, ChipView, Config, FrameInput, GuidedLoopConfig, GuidedMethod, MatchConfig,
+    Pipeline, REF_1378X80, RangeUse, Status,
 };
 use imade_host::clip::{Clip, load_chip, load_mask};
 use imade_tests::pose_errors;
@@ -128,9 +129,9 @@ fn evaluate(sg: &mut ShapeGuided, chip: &ChipView, prior: &ChipMask, truth: &[bo
     let mut out = ChipMask::new();
     let mut methods = [0.0; 2];
     let mut times = [Duration::ZERO; 2];
-    for (k, method) in Method::ALL.into_iter().enumerate() {
+    for (k, method) in GuidedMethod::ALL.into_iter().enumerate() {
         let start = Instant::now();
-        let refined = sg.refine(method, &config, chip, prior, &mut out);
+        let refined = sg.segment(method, &config, chip, prior, &mut out);
         times[k] = start.elapsed();
         // A refusal keeps the prior, as the pipeline would.
         methods[k] = match refined {
@@ -166,7 +167,7 @@ fn report(title: &str, outcomes: &[Outcome]) -> (f64, [f64; 2], [f64; 2]) {
     );
     let mut medians = [0.0; 2];
     let mut improved = [0.0; 2];
-    for (k, method) in Method::ALL.into_iter().enumerate() {
+    for (k, method) in GuidedMethod::ALL.into_iter().enumerate() {
         let q = quartiles(outcomes.iter().map(|o| o.methods[k]).collect());
         let better = outcomes.iter().filter(|o| o.methods[k] > o.prior).count();
         let ms = outcomes
@@ -256,7 +257,7 @@ const NOISY: ChipStyle = ChipStyle {
 fn both_methods_improve_a_wrong_prior_on_clean_chips() {
     let outcomes = synthetic_cases(&CLEAN);
     let (prior, medians, improved) = report("clean rendered chips", &outcomes);
-    for (k, method) in Method::ALL.into_iter().enumerate() {
+    for (k, method) in GuidedMethod::ALL.into_iter().enumerate() {
         assert!(
             medians[k] > prior + 0.15,
             "{}: median IoU {:.3} vs prior {prior:.3}",
@@ -490,8 +491,8 @@ proptest::proptest! {
         let config = if default_config { ShapeGuidedConfig::DEFAULT } else { odd_config(&values) };
         let mut sg = ShapeGuided::new();
         let mut out = ChipMask::new();
-        for method in Method::ALL {
-            if let Ok(r) = sg.refine(method, &config, &chip, &prior, &mut out) {
+        for method in GuidedMethod::ALL {
+            if let Ok(r) = sg.segment(method, &config, &chip, &prior, &mut out) {
                 proptest::prop_assert_eq!((out.width(), out.height()), (w, h));
                 proptest::prop_assert_eq!(r.area_px, out.count());
             }
@@ -513,14 +514,17 @@ struct LoopFrame {
 }
 
 /// The pipeline with the bundled table and `method` over the Table 1 test clip.
-fn run_loop(method: RefineMethod, range_use: RangeUse) -> Vec<LoopFrame> {
+fn run_loop(method: Option<GuidedMethod>, range_use: RangeUse) -> Vec<LoopFrame> {
     let clip = table1();
     let camera = clip.meta.camera.camera();
     let config = Config {
         range_use,
-        refine: RefineConfig {
-            method,
-            ..RefineConfig::DEFAULT
+        table_match: MatchConfig {
+            guided: GuidedLoopConfig {
+                method,
+                ..GuidedLoopConfig::DEFAULT
+            },
+            ..MatchConfig::DEFAULT
         },
         ..Config::DEFAULT
     };
@@ -552,11 +556,11 @@ fn run_loop(method: RefineMethod, range_use: RangeUse) -> Vec<LoopFrame> {
         frames.push(LoopFrame {
             frame: row.frame,
             errors: pose_errors(&result, &row.truth.expect("ground truth")),
-            outcome: pipeline.refinement().copied(),
+            outcome: pipeline.guided_loop().copied(),
             ious: [
                 score(pipeline.mask()),
                 score(pipeline.prior()),
-                score(pipeline.refined_mask()),
+                score(pipeline.guided_mask()),
             ],
         });
     }
@@ -576,9 +580,9 @@ fn median(mut v: Vec<f64>) -> f64 {
 #[test]
 fn refinement_loop_on_the_table1_test_clip() {
     for range_use in [RangeUse::Auto, RangeUse::Ignore] {
-        let none = run_loop(RefineMethod::None, range_use);
-        for method in RefineMethod::ALL {
-            let frames = if method == RefineMethod::None {
+        let none = run_loop(None, range_use);
+        for method in [None, Some(GuidedMethod::SisCut), Some(GuidedMethod::GvfAsm)] {
+            let frames = if method.is_none() {
                 &none
             } else {
                 &run_loop(method, range_use)
@@ -603,7 +607,7 @@ fn refinement_loop_on_the_table1_test_clip() {
                 "{range_use:?} {}: {} frames, Tx {:.4} Ty {:.4} Tz {:.2} m/km, pitch {:.3} yaw {:.2} \
                  best {:.2} deg/km; IoU blind {:.3} prior {:.3} refined {:.3}; re-match accepted \
                  in {} (prior IoU {:.3} -> {:.3}, better in {better}), stops {stops:?}",
-                method.as_str(),
+                method.map_or("none", |m| m.as_str()),
                 frames.len(),
                 errors(0),
                 errors(1),
@@ -618,14 +622,14 @@ fn refinement_loop_on_the_table1_test_clip() {
                 median(paired.iter().map(|p| p.0).collect()),
                 median(paired.iter().map(|p| p.1).collect()),
             );
-            if method == RefineMethod::None {
+            if method.is_none() {
                 assert!(outcomes.is_empty() && frames.iter().all(|f| f.ious[2].is_none()));
                 continue;
             }
             assert_eq!(outcomes.len(), frames.len(), "the loop runs in every frame");
             for (f, o) in frames.iter().zip(&outcomes) {
                 assert!(o.rms_px <= o.first_rms_px, "kept a worse fit: {o:?}");
-                assert!(o.rounds >= 1 && o.rounds <= RefineConfig::DEFAULT.max_rounds);
+                assert!(o.rounds >= 1 && o.rounds <= GuidedLoopConfig::DEFAULT.max_rounds);
                 assert!(o.accepted < o.rounds || o.stop == LoopStop::Rounds, "{o:?}");
                 assert!(f.ious[2].is_some(), "no refined mask: {o:?}");
             }

@@ -16,7 +16,7 @@
 //! at `0.866 R |cos(aspect)|`).
 
 use crate::camera::{Camera, line_of_sight_frame};
-use crate::extremes::{NOSE_RAMP, Silhouette};
+use crate::extremes::Silhouette;
 use crate::model::ProjectileModel;
 use crate::pose::{DEG, attitude_of};
 use nalgebra::{Vector2, Vector3};
@@ -48,6 +48,58 @@ pub struct ClosedForm {
     pub candidates: [Attitude; 2],
     /// Angle between the body axis and the line of sight, deg, in [0, 90].
     pub aspect_deg: f32,
+}
+
+/// The closed-form stage's result: the pose hypothesis that the table match starts from, and the
+/// pose of a frame that has no table match.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Hypothesis {
+    /// The silhouette it was solved from.
+    pub silhouette: Silhouette,
+    /// Full-frame px of the chip's top-left pixel.
+    pub origin: (i32, i32),
+    /// The range sensor's slant range, m, where one is used.
+    pub sensor_range_m: Option<f32>,
+    /// Slant range from the silhouette's diameter, m, where it gives a finite one.
+    pub image_range_m: Option<f32>,
+    /// The slant range the hypothesis is solved at: the sensor's, else the image's, m.
+    pub range_m: f32,
+    /// The closed-form solution at `range_m`.
+    pub solution: ClosedForm,
+}
+
+impl Hypothesis {
+    /// The hypothesis from `silhouette` on a chip whose top-left is full-frame `origin`, at the
+    /// sensor's range where there is one, else at the range of the apparent diameter; None when
+    /// neither gives a range.
+    pub fn solve(
+        silhouette: &Silhouette,
+        origin: (i32, i32),
+        camera: &Camera,
+        model: &ProjectileModel,
+        sensor_range_m: Option<f32>,
+    ) -> Option<Hypothesis> {
+        let image_range_m = range_from_diameter(silhouette, camera, model);
+        let range_m = sensor_range_m.or(image_range_m)?;
+        Some(Hypothesis {
+            silhouette: *silhouette,
+            origin,
+            sensor_range_m,
+            image_range_m,
+            range_m,
+            solution: solve(silhouette, origin, camera, model, range_m),
+        })
+    }
+
+    /// The closed form at slant range `range_m` (the temporal stage's).
+    pub fn at_range(&self, camera: &Camera, model: &ProjectileModel, range_m: f32) -> ClosedForm {
+        if range_m == self.range_m {
+            self.solution
+        } else {
+            solve(&self.silhouette, self.origin, camera, model, range_m)
+        }
+    }
 }
 
 /// The silhouette's ends in full-frame px, for a chip whose top-left is `origin`.
@@ -85,9 +137,8 @@ pub fn corrected_ends(
     cos_a: f32,
     px_per_m: f32,
 ) -> (f32, f32) {
-    let nose_offset_m = model.nose_ramp_zero_offset_m(NOSE_RAMP.0, NOSE_RAMP.1);
     (
-        sil.nose_t + nose_offset_m * sin_a * px_per_m,
+        sil.nose_t + sil.nose_ramp_offset_m * sin_a * px_per_m,
         sil.tail_t + DISC_HALF_WIDTH_REACH * model.radius_m() * cos_a * px_per_m,
     )
 }

@@ -6,21 +6,21 @@
 //!
 //! One frame flows one way through the stages, each a module:
 //!
-//! | stage | module | gives |
-//! | --- | --- | --- |
-//! | background, threshold, components, target selection | [`segment`] | the target and its mask |
-//! | principal axis, nose tip, tail edge, subpixel diameter | [`extremes`] | [`Silhouette`] |
-//! | Eq. 1-2 in the line-of-sight frame, range from the diameter | [`closed_form`] | pose, both yaw candidates |
-//! | shaded cross-section, width profile matched against the silhouette table, shape prior | [`lut`] | refined pose, prior mask |
-//! | segmentation guided by the prior, table match again (feature `shape-guided`) | `shape_guided` | refined mask, pose kept only when the re-match agrees |
-//! | Eq. 5 range smoothing, range trend, yaw choice | [`temporal`] | the chosen candidate |
+//! | stage | module | config | gives |
+//! | --- | --- | --- | --- |
+//! | detection: background, threshold, components, target selection, final mask cut | [`segment`] | [`DetectConfig`] | the target and its mask |
+//! | silhouette: principal axis, nose tip, tail edge, subpixel diameter | [`extremes`] | [`SilhouetteConfig`] | [`Silhouette`] |
+//! | closed form: Eq. 1-2 in the line-of-sight frame, range from the diameter | [`closed_form`] | none | [`closed_form::Hypothesis`]: pose, both yaw candidates |
+//! | table match: shaded cross-section, width profile matched against the silhouette table ([`lut`]), shape prior, shape-guided loop (`shape_guided`) | [`table_match`] | [`MatchConfig`] | [`table_match::Measurement`], prior and guided masks |
+//! | temporal estimate: Eq. 5 range smoothing, range trend, yaw choice | [`temporal`] | [`TemporalConfig`] | [`temporal::Estimate`] |
 //!
-//! [`Pipeline::process`] runs them all.
+//! [`Pipeline::process`] passes each stage's result to the next; each stage can also be called
+//! alone (the benchmarks and fuzz targets do).
 //!
 //! Cargo features: `shape-guided` (default) compiles the shape-guided segmentation and the
-//! pipeline's refinement loop (`Config.refine`), about 37 KiB of workspace and a third chip mask
-//! in every [`Pipeline`]; without it `Config.refine` is ignored. `defmt` derives `defmt::Format`
-//! on the public types, for firmware logging.
+//! table match's shape-guided loop ([`GuidedLoopConfig`]), about 37 KiB of workspace and a third
+//! chip mask in every [`Pipeline`]; without it no loop runs. `defmt` derives `defmt::Format` on
+//! the public types, for firmware logging.
 #![no_std]
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
@@ -31,6 +31,7 @@ pub mod chip;
 pub mod closed_form;
 pub mod config;
 pub mod extremes;
+pub mod frame;
 pub mod lut;
 pub mod mask;
 pub mod math;
@@ -41,13 +42,18 @@ pub mod results;
 pub mod segment;
 #[cfg(feature = "shape-guided")]
 pub mod shape_guided;
+pub mod table_match;
 pub mod temporal;
 
 pub use camera::Camera;
 pub use chip::{ChipError, ChipView};
-pub use config::{BodyPolarity, Config, RangeUse, RefineConfig, RefineMethod};
+pub use config::{
+    BodyPolarity, Config, DetectConfig, GuidedLoopConfig, GuidedMethod, MatchConfig, RangeUse,
+    SilhouetteConfig, TemporalConfig,
+};
 pub use extremes::Silhouette;
+pub use frame::{FrameError, FrameInput, FrameResult, ResultFault, Status};
 pub use mask::{BitMask, ChipMask};
 pub use model::{ProjectileModel, REF_1378X80, built_in_model};
-pub use pipeline::{FrameInput, FrameResult, Pipeline, Status};
+pub use pipeline::Pipeline;
 pub use pose::Pose;

@@ -1,7 +1,7 @@
 //! The imade-results/1 row format (../shared/spec/clip-format.md), written through
 //! `core::fmt::Write` so that the host and the firmware produce the same bytes.
 
-use crate::pipeline::{FrameResult, Status};
+use crate::frame::{FrameResult, Status};
 use core::fmt::{self, Write};
 
 /// The header line (without a line end). The spec's columns, then imade's own.

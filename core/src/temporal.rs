@@ -10,7 +10,66 @@
 //! (nose-first flight), a shrinking one that it points towards the camera.
 
 use crate::capacity::MAX_WINDOW;
-use crate::config::Config;
+
+/// The temporal stage's tunables.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TemporalConfig {
+    /// Weight `r` of the source paper's Eq. 5 Tz smoothing, in (0, 1]; 1 disables smoothing.
+    pub tz_smoothing_r: f32,
+    /// Frames in the window for the Tz trend (at most [`MAX_WINDOW`]).
+    pub window_frames: usize,
+    /// Fewest frames in the window before the yaw choice can be resolved.
+    pub min_trend_frames: usize,
+    /// Significance of the Tz trend, in standard errors, needed to resolve the yaw choice.
+    pub trend_sigma: f32,
+    /// A gap between frames longer than this, s, resets the temporal state.
+    pub max_gap_s: f32,
+}
+
+impl TemporalConfig {
+    /// The defaults.
+    pub const DEFAULT: TemporalConfig = TemporalConfig {
+        tz_smoothing_r: 0.1,
+        window_frames: 15,
+        min_trend_frames: 4,
+        trend_sigma: 3.0,
+        max_gap_s: 1.0,
+    };
+}
+
+impl Default for TemporalConfig {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// What the temporal state tells a frame before its image work.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Prediction {
+    /// The frame's time from the first frame kept, s.
+    pub t: f32,
+    /// The nose's image direction of the last frame with a pose, if any.
+    pub nose_dir: Option<(f32, f32)>,
+}
+
+/// One frame's observation for the temporal state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Observation {
+    /// The slant range from the image, m (None where the range sensor's is used).
+    pub image_range_m: Option<f32>,
+    /// The nose's image direction.
+    pub nose_dir: (f32, f32),
+}
+
+/// The temporal stage's estimate for a frame with a pose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// Slant range: the sensor's, else the smoothed image range, m.
+    pub range_m: f32,
+    /// The yaw choice.
+    pub choice: YawChoice,
+}
 
 /// Pairs of a full window, for the Theil-Sen slope.
 const MAX_PAIRS: usize = MAX_WINDOW * (MAX_WINDOW - 1) / 2;
@@ -78,9 +137,52 @@ impl Temporal {
         *self = Self::new();
     }
 
+    /// What the state tells the frame captured at `time_s` (s, any origin) before its image
+    /// work. A frame not after the last one, or after a gap longer than `config.max_gap_s`,
+    /// resets the state first.
+    pub fn predict(&mut self, time_s: f64, config: &TemporalConfig) -> Prediction {
+        let t = self.frame_time(time_s, config);
+        Prediction {
+            t,
+            nose_dir: self.nose_dir,
+        }
+    }
+
+    /// Takes the frame's range sensor reading `sensor_range_m` (evidence of the range trend
+    /// whatever became of the image) and, where the image gave a pose, its `observation`: the
+    /// image range is smoothed and joins the window, the nose direction is kept, and the yaw is
+    /// chosen. The estimate is None without an observation, or without any range.
+    pub fn update(
+        &mut self,
+        prediction: &Prediction,
+        sensor_range_m: Option<f32>,
+        observation: Option<Observation>,
+        config: &TemporalConfig,
+    ) -> Option<Estimate> {
+        let t = prediction.t;
+        if let Some(r) = sensor_range_m {
+            self.push_range(t, r, config);
+        }
+        let observation = observation?;
+        let range_m = match (sensor_range_m, observation.image_range_m) {
+            (Some(r), _) => r,
+            (None, Some(r)) => {
+                let smoothed = self.smooth_range(t, r, config);
+                self.push_range(t, r, config);
+                smoothed
+            }
+            (None, None) => return None,
+        };
+        self.nose_dir = Some(observation.nose_dir);
+        Some(Estimate {
+            range_m,
+            choice: self.choose_yaw(config),
+        })
+    }
+
     /// Time of a frame relative to the first frame kept, s. A frame not after the last one, or
     /// after a gap longer than `config.max_gap_s`, resets the state first.
-    pub fn frame_time(&mut self, time_s: f64, config: &Config) -> f32 {
+    fn frame_time(&mut self, time_s: f64, config: &TemporalConfig) -> f32 {
         if let Some(origin) = self.origin_s {
             let t = (time_s - origin) as f32;
             let gap = t - self.last_t;
@@ -96,7 +198,7 @@ impl Temporal {
     }
 
     /// Smooths a slant range measured from the image at time `t` (Eq. 5 with trend), m.
-    pub fn smooth_range(&mut self, t: f32, measured: f32, config: &Config) -> f32 {
+    fn smooth_range(&mut self, t: f32, measured: f32, config: &TemporalConfig) -> f32 {
         let r = config.tz_smoothing_r.clamp(0.0, 1.0);
         let value = match self.smoothed {
             Some(prev) => {
@@ -111,7 +213,7 @@ impl Temporal {
     }
 
     /// Adds a measured slant range at time `t` to the window.
-    pub fn push_range(&mut self, t: f32, range: f32, config: &Config) {
+    fn push_range(&mut self, t: f32, range: f32, config: &TemporalConfig) {
         let capacity = config.window_frames.clamp(2, MAX_WINDOW);
         while self.window.len() >= capacity {
             self.window.pop_front();
@@ -200,7 +302,7 @@ impl Temporal {
     /// point) changes the choice within a few frames instead of half a window. Keeps the last
     /// resolved choice (or "away", for a projectile flying off from the launcher) while no
     /// stretch is significant.
-    pub fn choose_yaw(&mut self, config: &Config) -> YawChoice {
+    fn choose_yaw(&mut self, config: &TemporalConfig) -> YawChoice {
         let shortest = config.min_trend_frames.max(3);
         let decided = (shortest..=self.window.len())
             .filter_map(|frames| self.recent_trend(frames))
@@ -220,16 +322,6 @@ impl Temporal {
             },
         }
     }
-
-    /// The nose's image direction of the last frame, if any.
-    pub fn nose_dir(&self) -> Option<(f32, f32)> {
-        self.nose_dir
-    }
-
-    /// Remembers the nose's image direction.
-    pub fn set_nose_dir(&mut self, dir: (f32, f32)) {
-        self.nose_dir = Some(dir);
-    }
 }
 
 /// Median of a slice (reordered in place); none when empty.
@@ -248,7 +340,7 @@ mod tests {
 
     #[test]
     fn resolves_a_growing_range_as_away_and_a_shrinking_one_as_towards() {
-        let config = Config::DEFAULT;
+        let config = TemporalConfig::DEFAULT;
         for (rate, away) in [(90.0f32, true), (-90.0, false)] {
             let mut state = Temporal::new();
             let mut choice = state.choose_yaw(&config);
@@ -274,7 +366,7 @@ mod tests {
         // range rate 2 frames back; the samples' deviation from their neighbours' chords, c dt^2,
         // is taken as noise, so the slope is significant (3 standard errors) from 2.6 frames
         // after the turn.
-        let config = Config::DEFAULT;
+        let config = TemporalConfig::DEFAULT;
         let (c, t0, dt) = (40.0f32, 2.5f32, 0.27f32);
         let mut state = Temporal::new();
         for k in 0..20 {
@@ -293,7 +385,7 @@ mod tests {
 
     #[test]
     fn a_flat_noisy_range_stays_unresolved() {
-        let config = Config::DEFAULT;
+        let config = TemporalConfig::DEFAULT;
         let mut state = Temporal::new();
         for k in 0..15 {
             let t = state.frame_time(k as f64 / 30.0, &config);
@@ -305,7 +397,7 @@ mod tests {
 
     #[test]
     fn smoothing_follows_a_trend_without_lag() {
-        let config = Config::DEFAULT;
+        let config = TemporalConfig::DEFAULT;
         let mut state = Temporal::new();
         let mut last = 0.0;
         for k in 0..40 {
@@ -319,7 +411,7 @@ mod tests {
 
     #[test]
     fn a_time_gap_or_reversal_resets() {
-        let config = Config::DEFAULT;
+        let config = TemporalConfig::DEFAULT;
         let mut state = Temporal::new();
         assert_eq!(state.frame_time(10.0, &config), 0.0);
         assert!((state.frame_time(10.1, &config) - 0.1).abs() < 1e-6);

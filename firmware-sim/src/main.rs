@@ -29,7 +29,7 @@ use host_io::{Args, IoError};
 use icount::InstructionCounter;
 use imade_core::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS, mask_words};
 use imade_core::lut::table::{Table, TableError};
-use imade_core::{Config, FrameInput, FrameResult, Pipeline, ProjectileModel};
+use imade_core::{Config, FrameInput, FrameResult, MatchConfig, Pipeline, ProjectileModel};
 use imade_pack::{ReadError, TableUse};
 use outputs::{OutputError, Outputs};
 use static_cell::ConstStaticCell;
@@ -135,9 +135,13 @@ fn run() -> Result<(), Error> {
     // The pipeline lives in this stack frame, built in place (docs/firmware.md: a static one
     // would be built on the stack and copied, or cost its initial image in flash). It draws no
     // shape prior: the firmware displays nothing, and the results do not depend on it.
+    let defaults = header.config();
     let config = Config {
-        shape_prior: false,
-        ..header.config()
+        table_match: MatchConfig {
+            shape_prior: false,
+            ..defaults.table_match
+        },
+        ..defaults
     };
     let pipeline = FirmwarePipeline::new(config, header.camera, *model);
     let mut pipeline = match table {

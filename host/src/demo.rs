@@ -17,7 +17,6 @@ use crate::eval::{Evaluation, evaluate, report, write_reports};
 use crate::plot::plot_all;
 use crate::run::{Job, RangeArg, outcome, run_jobs};
 use anyhow::Context;
-use imade_core::RefineMethod;
 use std::path::PathBuf;
 
 /// Arguments of `imade demo`.
@@ -50,7 +49,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             range,
             save_masks: true,
             lut: args.lut.clone(),
-            refine: RefineMethod::None,
+            refine: crate::run::RefineChoice(None),
         })
         .collect();
     eprintln!(

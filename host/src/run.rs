@@ -7,7 +7,7 @@ use crate::stages::{STAGES, mask_file_name};
 use crate::summary::{ClipSummary, Problem, RunSummary, SUMMARY_FORMAT};
 use anyhow::{Context, bail};
 use imade_core::{
-    Config, FrameInput, Pipeline, RangeUse, RefineConfig, RefineMethod, Status, results,
+    Config, FrameInput, GuidedMethod, MatchConfig, Pipeline, RangeUse, Status, results,
 };
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -47,22 +47,40 @@ impl RangeArg {
     }
 }
 
+/// The shape-guided loop's method as chosen with `--refine`: a method, or none.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RefineChoice(pub Option<GuidedMethod>);
+
+impl RefineChoice {
+    /// The name on the command line: `none`, `sis-cut` or `gvf-asm`.
+    pub fn as_str(self) -> &'static str {
+        self.0.map_or("none", |m| m.as_str())
+    }
+}
+
 /// Parses `--refine`: `none`, `sis-cut` or `gvf-asm`.
-pub fn parse_refine(name: &str) -> Result<RefineMethod, String> {
-    name.parse().map_err(|_| {
-        let names: Vec<&str> = RefineMethod::ALL.iter().map(|m| m.as_str()).collect();
-        format!("expected one of {}", names.join(", "))
+pub fn parse_refine(name: &str) -> Result<RefineChoice, String> {
+    if name == "none" {
+        return Ok(RefineChoice(None));
+    }
+    name.parse().map(|m| RefineChoice(Some(m))).map_err(|_| {
+        let names: Vec<&str> = GuidedMethod::ALL.iter().map(|m| m.as_str()).collect();
+        format!("expected one of none, {}", names.join(", "))
     })
 }
 
-/// The core configuration of a job: the range use's, with the refinement method.
-fn job_config(range: RangeArg, refine: RefineMethod) -> Config {
+/// The core configuration of a job: the range use's, with the shape-guided method.
+fn job_config(range: RangeArg, refine: RefineChoice) -> Config {
+    let config = range.config();
     Config {
-        refine: RefineConfig {
-            method: refine,
-            ..RefineConfig::DEFAULT
+        table_match: MatchConfig {
+            guided: imade_core::GuidedLoopConfig {
+                method: refine.0,
+                ..config.table_match.guided
+            },
+            ..config.table_match
         },
-        ..range.config()
+        ..config
     }
 }
 
@@ -91,7 +109,7 @@ pub struct RunArgs {
     /// Shape-guided refinement of the table match: `none`, `sis-cut` or `gvf-asm` (needs a
     /// table; docs/shape-guided.md).
     #[arg(long, default_value = "none", value_parser = parse_refine)]
-    pub refine: RefineMethod,
+    pub refine: RefineChoice,
 }
 
 /// One clip to process and where its results go.
@@ -107,8 +125,8 @@ pub struct Job {
     pub save_masks: bool,
     /// The table choice (see [`RunArgs::lut`]).
     pub lut: String,
-    /// The refinement method (see [`RunArgs::refine`]).
-    pub refine: RefineMethod,
+    /// The shape-guided method (see [`RunArgs::refine`]).
+    pub refine: RefineChoice,
 }
 
 /// Runs `imade run`. Every clip is processed independently; the outcome is an error carrying
@@ -382,9 +400,13 @@ mod tests {
 
     #[test]
     fn refine_names_parse_and_others_are_refused() {
-        for method in RefineMethod::ALL {
-            assert_eq!(parse_refine(method.as_str()), Ok(method));
+        for method in GuidedMethod::ALL {
+            assert_eq!(
+                parse_refine(method.as_str()),
+                Ok(RefineChoice(Some(method)))
+            );
         }
+        assert_eq!(parse_refine("none"), Ok(RefineChoice(None)));
         let error = parse_refine("graph-cut").unwrap_err();
         assert!(error.contains("none, sis-cut, gvf-asm"), "{error}");
     }
@@ -399,7 +421,7 @@ mod tests {
             range: RangeArg::Auto,
             save_masks: true,
             lut: "bundled".into(),
-            refine: RefineMethod::GvfAsm,
+            refine: RefineChoice(Some(GuidedMethod::GvfAsm)),
         })?;
         let poses = std::fs::read_to_string(out.join("results.csv"))?
             .lines()

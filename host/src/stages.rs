@@ -45,7 +45,7 @@ pub const STAGES: &[MaskStage] = &[
     MaskStage {
         name: "shape-guided segmentation",
         folder: REFINED_FOLDER,
-        mask: Pipeline::refined_mask,
+        mask: Pipeline::guided_mask,
         // Fig. 19 gives no median for SIS-Cut or GVF-ASM, only that both fall below the prior.
         paper: None,
     },

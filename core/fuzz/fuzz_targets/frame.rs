@@ -8,8 +8,8 @@ use arbitrary::Arbitrary;
 use imade_core::lut::table::Table;
 use imade_core::mask::ChipMask;
 use imade_core::{
-    BodyPolarity, Camera, Config, FrameInput, Pipeline, REF_1378X80, RangeUse, RefineConfig,
-    RefineMethod,
+    BodyPolarity, Camera, Config, DetectConfig, FrameInput, GuidedLoopConfig, GuidedMethod,
+    MatchConfig, Pipeline, REF_1378X80, RangeUse, SilhouetteConfig, TemporalConfig,
 };
 use imade_core_fuzz::{oracle, synth};
 use libfuzzer_sys::fuzz_target;
@@ -60,10 +60,18 @@ enum ConfigSpec {
         min_trend_frames: u8,
         trend_sigma: f32,
         max_gap_s: f32,
+        mask_margin_sigmas: f32,
+        mask_margin_px: f32,
         ignore_range: bool,
-        /// The refinement method, modulo 3 (the shape-guided loop).
-        refine: u8,
+        /// The shape-guided method, modulo 3 (0: none).
+        guided: u8,
         shape_prior: bool,
+        section_bin_px: f32,
+        cylinder_margin: f32,
+        min_cylinder_px: f32,
+        end_weight: f32,
+        /// Every tunable of the silhouette stage, in its field order.
+        silhouette: [f32; 12],
     },
 }
 
@@ -127,7 +135,10 @@ fn config(spec: &ConfigSpec) -> Config {
             polarity: p,
             ignore_range,
         } => Config {
-            polarity: polarity(p),
+            detect: DetectConfig {
+                polarity: polarity(p),
+                ..DetectConfig::DEFAULT
+            },
             range_use: range_use(ignore_range),
             ..Config::DEFAULT
         },
@@ -143,27 +154,58 @@ fn config(spec: &ConfigSpec) -> Config {
             min_trend_frames,
             trend_sigma,
             max_gap_s,
+            mask_margin_sigmas,
+            mask_margin_px,
             ignore_range,
-            refine,
+            guided,
             shape_prior,
+            section_bin_px,
+            cylinder_margin,
+            min_cylinder_px,
+            end_weight,
+            silhouette: s,
         } => Config {
-            detect_sigma,
-            detect_retries: detect_retries % 4,
-            min_area_px,
-            polarity: polarity(p),
-            mask_level,
-            mask_min_sigma,
-            tz_smoothing_r,
-            window_frames: usize::from(window_frames),
-            min_trend_frames: usize::from(min_trend_frames),
-            trend_sigma,
-            max_gap_s,
             range_use: range_use(ignore_range),
-            refine: RefineConfig {
-                method: RefineMethod::ALL[usize::from(refine % 3)],
-                ..RefineConfig::DEFAULT
+            detect: DetectConfig {
+                threshold_sigma: detect_sigma,
+                retries: detect_retries % 4,
+                min_area_px,
+                polarity: polarity(p),
+                mask_level,
+                mask_min_sigma,
+                mask_margin_sigmas,
+                mask_margin_px,
             },
-            shape_prior,
+            silhouette: SilhouetteConfig {
+                half_length_sds: s[0],
+                section_reach_sds: s[1],
+                section_reach_px: s[2],
+                nose_ramp: (s[3], s[4]),
+                end_level: s[5],
+                max_gap: s[6],
+                taper_window: (s[7], s[8]),
+                plateau_window: (s[9], s[10]),
+                min_nose_evidence: s[11],
+            },
+            table_match: MatchConfig {
+                section_bin_px,
+                cylinder_margin,
+                min_cylinder_px,
+                end_weight,
+                shape_prior,
+                guided: GuidedLoopConfig {
+                    method: [None, Some(GuidedMethod::SisCut), Some(GuidedMethod::GvfAsm)]
+                        [usize::from(guided % 3)],
+                    ..GuidedLoopConfig::DEFAULT
+                },
+            },
+            temporal: TemporalConfig {
+                tz_smoothing_r,
+                window_frames: usize::from(window_frames),
+                min_trend_frames: usize::from(min_trend_frames),
+                trend_sigma,
+                max_gap_s,
+            },
         },
     }
 }

@@ -13,10 +13,10 @@ use imade_core::closed_form::{self, ClosedForm};
 use imade_core::extremes::{self, Silhouette};
 use imade_core::lut::render;
 use imade_core::lut::table::Table;
-use imade_core::lut::{self, Frame};
 use imade_core::mask::ChipMask;
 use imade_core::segment::Segmenter;
 use imade_core::segment::background::Background;
+use imade_core::table_match::{MatchConfig, MatchInput, pose};
 use imade_core::{Camera, Config, REF_1378X80};
 use imade_core_fuzz::synth::{self, ChipSpec, Raw, Shape};
 use imade_core_fuzz::table::{Header, build, read_all, with_checksum};
@@ -90,13 +90,14 @@ fn prepared() -> &'static Prepared {
         let chip = synth::synthesize(&spec, &mut ChipMask::new());
         let view = chip.view(ORIGIN).expect("a valid chip");
         let mut segmenter: Box<Segmenter> = Box::default();
-        let mut mask = Box::new(ChipMask::new());
         let target = segmenter
-            .detect(&view, &Config::DEFAULT, (128.0, 128.0), &mut mask)
+            .detect(&view, &Config::DEFAULT.detect, (128.0, 128.0))
             .expect("the projectile is found");
         let background = segmenter.background().clone();
-        let silhouette = extremes::measure(&view, &background, &target, &REF_1378X80, None)
-            .expect("the projectile is measured");
+        let config = Config::DEFAULT.silhouette;
+        let silhouette =
+            extremes::measure(&view, &background, &target, &REF_1378X80, None, &config)
+                .expect("the projectile is measured");
         let range =
             closed_form::range_from_diameter(&silhouette, &CAMERA, &REF_1378X80).expect("a range");
         let closed = closed_form::solve(&silhouette, ORIGIN, &CAMERA, &REF_1378X80, range);
@@ -110,11 +111,11 @@ fn prepared() -> &'static Prepared {
     })
 }
 
-/// Refines the prepared frame against `table` and draws entries at the matched placement.
+/// Matches the prepared frame against `table` and draws entries at the matched placement.
 fn refine(table: &Table, range_m: Option<u16>) {
     let p = prepared();
     let view = p.chip.view(ORIGIN).expect("a valid chip");
-    let frame = Frame {
+    let frame = MatchInput {
         chip: &view,
         background: &p.background,
         silhouette: &p.silhouette,
@@ -122,7 +123,16 @@ fn refine(table: &Table, range_m: Option<u16>) {
         origin: ORIGIN,
     };
     let range = range_m.map(f32::from);
-    let Ok(refined) = lut::refine(&frame, table, &REF_1378X80, &CAMERA, &p.closed, range) else {
+    let config = MatchConfig::DEFAULT;
+    let Ok(refined) = pose::match_pose(
+        &frame,
+        table,
+        &REF_1378X80,
+        &CAMERA,
+        &p.closed,
+        range,
+        &config,
+    ) else {
         return;
     };
     assert!(

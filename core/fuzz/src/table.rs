@@ -111,4 +111,3 @@ pub fn read_all(table: &Table) {
     }
     let _ = table.model_id();
 }
-

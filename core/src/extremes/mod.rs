@@ -1,4 +1,4 @@
-//! Extreme points and diameter: the body's axis, nose tip, tail edge and diameter, subpixel.
+//! The silhouette stage: the body's axis, nose tip, tail edge and diameter, subpixel.
 //!
 //! 1. The cross-section of the cylindrical body is fitted on two stretches either side of the
 //!    centre ([`cross_profile`]): diameter, contrast and blur, and, from the two stretches'
@@ -18,8 +18,55 @@ use crate::segment::background::Background;
 use axial_profile::WidthProfile;
 use cross_profile::{CrossSection, Stretch};
 
-/// Width fractions of the body diameter between which the nose ramp is fitted.
-pub const NOSE_RAMP: (f32, f32) = (0.2, 0.65);
+/// The silhouette stage's tunables.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SilhouetteConfig {
+    /// Half the body's length in standard deviations of the mask along its axis (a uniform bar's
+    /// is sqrt 3): the cross-section is fitted over half of it either side of the centre.
+    pub half_length_sds: f32,
+    /// The cross-section reaches this many standard deviations of the mask across its axis ...
+    pub section_reach_sds: f32,
+    /// ... plus this many px.
+    pub section_reach_px: f32,
+    /// Width fractions of the body diameter between which the nose ramp is fitted.
+    pub nose_ramp: (f32, f32),
+    /// The body's ends: where the width falls below this fraction of the diameter.
+    pub end_level: f32,
+    /// Gaps in the width profile shorter than this fraction of the half-length are crossed (a
+    /// broken silhouette).
+    pub max_gap: f32,
+    /// Where the nose is told from the tail: the mean width over this stretch inside each end,
+    /// in fractions of the length (the ogive is narrow there, the tail full).
+    pub taper_window: (f32, f32),
+    /// The tail's plateau width is the mean over this stretch inside the tail edge, in fractions
+    /// of the length; the tail edge is where the width falls to half of it.
+    pub plateau_window: (f32, f32),
+    /// Below this difference of the two ends' taper, in diameters, the nose is the end nearest
+    /// the recent frames' nose direction.
+    pub min_nose_evidence: f32,
+}
+
+impl SilhouetteConfig {
+    /// The defaults.
+    pub const DEFAULT: SilhouetteConfig = SilhouetteConfig {
+        half_length_sds: 1.732,
+        section_reach_sds: 3.0,
+        section_reach_px: 3.0,
+        nose_ramp: (0.2, 0.65),
+        end_level: 0.15,
+        max_gap: 0.25,
+        taper_window: (0.03, 0.10),
+        plateau_window: (0.03, 0.08),
+        min_nose_evidence: 0.1,
+    };
+}
+
+impl Default for SilhouetteConfig {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
 
 /// A line in the chip: a point and a unit direction.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -94,8 +141,12 @@ pub struct Silhouette {
     /// The body axis, directed from the tail towards the nose.
     pub axis: Axis,
     /// Nose tip, extrapolated from the tapering width (not yet corrected for the ogive's
-    /// curvature: see [`ProjectileModel::nose_ramp_zero_offset_m`]), px along `axis`.
+    /// curvature: see `nose_ramp_offset_m`), px along `axis`.
     pub nose_t: f32,
+    /// How far the model's true nose tip lies beyond the zero of a line fitted to its width
+    /// between the fractions [`SilhouetteConfig::nose_ramp`] of the diameter (the ogive's
+    /// curvature), m along the body ([`ProjectileModel::nose_ramp_zero_offset_m`]).
+    pub nose_ramp_offset_m: f32,
     /// Tail edge, where the width falls to half its plateau, px along `axis`.
     pub tail_t: f32,
     /// Body diameter across the axis, px.
@@ -127,10 +178,11 @@ pub fn measure(
     target: &Target,
     model: &ProjectileModel,
     prior_dir: Option<(f32, f32)>,
+    config: &SilhouetteConfig,
 ) -> Result<Silhouette, ExtremesError> {
     let shape = &target.shape;
-    let half_length = 1.732 * shape.major_sd;
-    let half_width = 3.0 * shape.minor_sd + 3.0;
+    let half_length = config.half_length_sds * shape.major_sd;
+    let half_width = config.section_reach_sds * shape.minor_sd + config.section_reach_px;
     let fit = |t0: f32, t1: f32| {
         cross_profile::fit(
             chip,
@@ -169,9 +221,9 @@ pub fn measure(
     );
     let centre_bin = profile.bin_of(0.0);
     // Gaps of up to a quarter of the half-length (a broken silhouette) are crossed.
-    let max_gap = (0.25 * half_length) as usize + 2;
-    let low = profile.body_end(centre_bin, -1, 0.15 * d, max_gap);
-    let high = profile.body_end(centre_bin, 1, 0.15 * d, max_gap);
+    let max_gap = (config.max_gap * half_length) as usize + 2;
+    let low = profile.body_end(centre_bin, -1, config.end_level * d, max_gap);
+    let high = profile.body_end(centre_bin, 1, config.end_level * d, max_gap);
     let lo50 = profile
         .crossing_inward(low, 1, 0.5 * d)
         .ok_or(ExtremesError::NoEnds)?;
@@ -182,11 +234,12 @@ pub fn measure(
     if length.is_nan() || length <= 0.0 {
         return Err(ExtremesError::NoEnds);
     }
-    // Mean width 3-10 % of the length inside each end: the ogive is narrow there, the tail full.
-    let taper_low = profile.mean_between(lo50 + 0.03 * length, lo50 + 0.10 * length);
-    let taper_high = profile.mean_between(hi50 - 0.03 * length, hi50 - 0.10 * length);
+    // Mean width just inside each end: the ogive is narrow there, the tail full.
+    let (near, far) = config.taper_window;
+    let taper_low = profile.mean_between(lo50 + near * length, lo50 + far * length);
+    let taper_high = profile.mean_between(hi50 - near * length, hi50 - far * length);
     let evidence = (taper_low - taper_high) / d; // > 0: the high end tapers (nose at +t)
-    let nose_high = if libm::fabsf(evidence) < 0.1
+    let nose_high = if libm::fabsf(evidence) < config.min_nose_evidence
         && let Some(prior) = prior_dir
     {
         axis.dir.0 * prior.0 + axis.dir.1 * prior.1 >= 0.0
@@ -198,14 +251,16 @@ pub fn measure(
     } else {
         (low, 1isize, lo50, high, -1isize, hi50)
     };
+    let (ramp_low, ramp_high) = config.nose_ramp;
     let nose_t = profile
-        .ramp_zero(nose_outer, nose_inward, NOSE_RAMP.0 * d, NOSE_RAMP.1 * d)
+        .ramp_zero(nose_outer, nose_inward, ramp_low * d, ramp_high * d)
         .unwrap_or(nose50);
-    // Tail plateau 3-8 % of the length inside the tail edge, then its half-level crossing.
+    // The tail plateau just inside the tail edge, then its half-level crossing.
     let inward = tail_inward as f32;
+    let (near, far) = config.plateau_window;
     let plateau = profile.mean_between(
-        tail50 + inward * 0.03 * length,
-        tail50 + inward * 0.08 * length,
+        tail50 + inward * near * length,
+        tail50 + inward * far * length,
     );
     let tail_t = profile
         .crossing_inward(tail_outer, tail_inward, 0.5 * plateau)
@@ -226,6 +281,7 @@ pub fn measure(
     Ok(Silhouette {
         axis,
         nose_t,
+        nose_ramp_offset_m: model.nose_ramp_zero_offset_m(ramp_low, ramp_high),
         tail_t,
         diameter_px: d,
         contrast: section.contrast,

@@ -34,7 +34,18 @@
 //!
 //! Station `s` of an entry lies at `u = u_lo + (u_hi - u_lo) s / (S - 1)`.
 
+use super::render::View;
 use crate::model::ProjectileModel;
+
+/// Tilt of index `i` of a grid of `tilts`, deg: `90 i / (tilts - 1)`.
+pub fn grid_tilt_deg(i: usize, tilts: usize) -> f32 {
+    90.0 * i as f32 / tilts.saturating_sub(1).max(1) as f32
+}
+
+/// Roll of index `j` of a grid of `rolls`, deg: `90 j / rolls`.
+pub fn grid_roll_deg(j: usize, rolls: usize) -> f32 {
+    90.0 * j as f32 / rolls.max(1) as f32
+}
 
 /// The magic bytes.
 pub const MAGIC: [u8; 8] = *b"IMADELUT";
@@ -194,12 +205,42 @@ impl<'a> Table<'a> {
 
     /// Tilt of grid index `i`, deg.
     pub fn tilt_deg(&self, i: usize) -> f32 {
-        90.0 * i as f32 / (self.tilts - 1) as f32
+        grid_tilt_deg(i, self.tilts)
     }
 
     /// Roll of grid index `j`, deg.
     pub fn roll_deg(&self, j: usize) -> f32 {
-        90.0 * j as f32 / self.rolls as f32
+        grid_roll_deg(j, self.rolls)
+    }
+
+    /// Spacing of the tilt grid, deg.
+    pub fn tilt_step_deg(&self) -> f32 {
+        90.0 / (self.tilts - 1) as f32
+    }
+
+    /// Spacing of the roll grid, deg.
+    pub fn roll_step_deg(&self) -> f32 {
+        90.0 / self.rolls as f32
+    }
+
+    /// The tilt index nearest to `tilt_deg` (clamped to the grid).
+    pub fn tilt_index(&self, tilt_deg: f32) -> usize {
+        (libm::roundf(tilt_deg.clamp(0.0, 90.0) / self.tilt_step_deg()) as usize)
+            .min(self.tilts - 1)
+    }
+
+    /// The roll index nearest to `roll_deg` (clamped to the grid).
+    pub fn roll_index(&self, roll_deg: f32) -> usize {
+        (libm::roundf(roll_deg.clamp(0.0, 90.0) / self.roll_step_deg()) as usize)
+            .min(self.rolls - 1)
+    }
+
+    /// The entry nearest to `view`.
+    pub fn entry_nearest(&self, view: &View) -> Entry<'a> {
+        self.entry(
+            self.tilt_index(view.tilt_deg),
+            self.roll_index(view.roll_deg),
+        )
     }
 
     /// The entry at tilt index `tilt` and roll index `roll` (clamped to the grid).

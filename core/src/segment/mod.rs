@@ -1,10 +1,11 @@
-//! Segmentation: background model, threshold, connected components, target selection, and the
-//! target's mask.
+//! The detection stage: background model, threshold, connected components, target selection, and
+//! the target's mask.
 //!
-//! Detection thresholds the background-subtracted chip at `detect_sigma` noise deviations on both
-//! sides (targets darker or brighter than the sky), labels 8-connected components, and selects
-//! the projectile ([`select`]). Once the body's full contrast is measured, [`Segmenter::refine`]
-//! recuts the mask at a fraction of it (half, by default: the pixels at least half covered).
+//! [`Segmenter::detect`] thresholds the background-subtracted chip at
+//! [`DetectConfig::threshold_sigma`] noise deviations on both sides (targets darker or brighter
+//! than the sky), labels 8-connected components, and selects the projectile ([`select`]). Once
+//! the silhouette stage has measured the body's full contrast, [`Segmenter::cut_mask`] recuts the
+//! mask at a fraction of it (half, by default: the pixels at least half covered).
 
 pub mod background;
 pub mod label;
@@ -12,11 +13,56 @@ pub mod select;
 
 use crate::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS, MAX_COMPONENTS};
 use crate::chip::ChipView;
-use crate::config::Config;
+use crate::config::BodyPolarity;
+use crate::extremes::Silhouette;
 use crate::mask::BitMask;
 use background::Background;
 use label::{LabelError, Labeler, Moments, Rect};
 use select::{Candidate, Selection, Shape};
+
+/// The detection stage's tunables.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DetectConfig {
+    /// Detection threshold on the background-subtracted chip, in noise standard deviations.
+    pub threshold_sigma: f32,
+    /// Times the detection threshold is doubled and the chip labeled again when a table of the
+    /// labeler runs out (clutter); a `capacity` status only after the last.
+    pub retries: u8,
+    /// Smallest component kept for target selection, px.
+    pub min_area_px: u32,
+    /// The body's contrast polarity.
+    pub polarity: BodyPolarity,
+    /// Fraction of the body's full contrast at which the final mask is cut: 0.5 keeps pixels at
+    /// least half covered, as the ground-truth masks (`docs/formats.md`).
+    pub mask_level: f32,
+    /// Lowest mask cut, in noise standard deviations (guards low-contrast targets against noise).
+    pub mask_min_sigma: f32,
+    /// The final cut looks this many blur standard deviations beyond the detected box ...
+    pub mask_margin_sigmas: f32,
+    /// ... plus this many px.
+    pub mask_margin_px: f32,
+}
+
+impl DetectConfig {
+    /// The defaults.
+    pub const DEFAULT: DetectConfig = DetectConfig {
+        threshold_sigma: 4.5,
+        retries: 2,
+        min_area_px: 6,
+        polarity: BodyPolarity::Dark,
+        mask_level: 0.5,
+        mask_min_sigma: 2.0,
+        mask_margin_sigmas: 2.0,
+        mask_margin_px: 3.0,
+    };
+}
+
+impl Default for DetectConfig {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
 
 /// Why no target came out of segmentation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -26,6 +72,9 @@ pub enum SegmentError {
     NoTarget,
     /// A capacity ran out.
     Capacity(CapacityKind),
+    /// The target's final mask reaches the chip's edge: the body has lost an end (or more), and
+    /// its extremes and scale would be those of a shorter body.
+    AtEdge,
 }
 
 /// Which capacity ran out.
@@ -66,27 +115,35 @@ pub struct Target {
     pub components: u16,
 }
 
-/// The segmentation stage and its fixed buffers.
+/// The detection stage and its fixed buffers: the sky model, the labeler (`MAX_RUNS` runs,
+/// `MAX_LABELS` provisional labels) and the target's chip mask (`MASK_WORDS` 32-bit words).
 pub struct Segmenter<
     const MAX_RUNS: usize = DEFAULT_MAX_RUNS,
     const MAX_LABELS: usize = DEFAULT_MAX_LABELS,
+    const MASK_WORDS: usize = { crate::capacity::MASK_WORDS },
 > {
     background: Background,
     labeler: Labeler<MAX_RUNS, MAX_LABELS>,
+    mask: BitMask<MASK_WORDS>,
 }
 
-impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Default for Segmenter<MAX_RUNS, MAX_LABELS> {
+impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize> Default
+    for Segmenter<MAX_RUNS, MAX_LABELS, MASK_WORDS>
+{
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Segmenter<MAX_RUNS, MAX_LABELS> {
+impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
+    Segmenter<MAX_RUNS, MAX_LABELS, MASK_WORDS>
+{
     /// An empty segmenter.
     pub const fn new() -> Self {
         Segmenter {
             background: Background::new(),
             labeler: Labeler::new(),
+            mask: BitMask::new(),
         }
     }
 
@@ -95,22 +152,32 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Segmenter<MAX_RUNS, MAX_LAB
         &self.background
     }
 
+    /// The target mask of the last chip (chip-sized; empty when no target was found).
+    pub fn mask(&self) -> &BitMask<MASK_WORDS> {
+        &self.mask
+    }
+
+    /// Empties the target mask.
+    pub fn clear_mask(&mut self) {
+        self.mask.clear();
+    }
+
     /// Detects the target in `chip`, aiming near `aim` (chip px), and paints its mask.
-    pub fn detect<const W: usize>(
+    pub fn detect(
         &mut self,
         chip: &ChipView,
-        config: &Config,
+        config: &DetectConfig,
         aim: (f32, f32),
-        mask: &mut BitMask<W>,
     ) -> Result<Target, SegmentError> {
-        mask.reset(chip.width(), chip.height())
+        self.mask
+            .reset(chip.width(), chip.height())
             .map_err(|_| SegmentError::Capacity(CapacityKind::Mask))?;
         self.background.estimate(chip);
         // Clutter (a cloudy sky the sky model does not follow) can fill a table at the
         // threshold; a target stands out at a higher one, so it is doubled and the chip labeled
         // again, a few times at most.
-        let mut threshold = config.detect_sigma * self.background.sigma();
-        let mut retries = config.detect_retries;
+        let mut threshold = config.threshold_sigma * self.background.sigma();
+        let mut retries = config.retries;
         let mut candidates = heapless::Vec::new();
         loop {
             match self.candidates(chip, threshold, config.min_area_px, &mut candidates) {
@@ -130,7 +197,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Segmenter<MAX_RUNS, MAX_LAB
             config.polarity,
         )
         .ok_or(SegmentError::NoTarget)?;
-        self.paint(&selection.parts, mask);
+        paint(&self.labeler, &selection.parts, &mut self.mask);
         Ok(target_of(&selection, candidates.len()))
     }
 
@@ -172,16 +239,41 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Segmenter<MAX_RUNS, MAX_LAB
         Ok(())
     }
 
+    /// The final mask of `target`, cut at the fraction [`DetectConfig::mask_level`] of the
+    /// contrast the silhouette stage measured (`silhouette`): the target recut, or an error when
+    /// a table ran out or the recut mask reaches the chip's edge ([`SegmentError::AtEdge`]).
+    pub fn cut_mask(
+        &mut self,
+        chip: &ChipView,
+        config: &DetectConfig,
+        target: &Target,
+        silhouette: &Silhouette,
+    ) -> Result<Target, SegmentError> {
+        let level = (config.mask_level * silhouette.contrast)
+            .max(config.mask_min_sigma * self.background.sigma());
+        let margin =
+            (config.mask_margin_sigmas * silhouette.sigma_px + config.mask_margin_px) as u16;
+        let recut = match self.recut(chip, target, level, margin) {
+            Err(SegmentError::NoTarget) => *target,
+            other => other?,
+        };
+        if recut.moments.bbox.touches_edge(chip.width(), chip.height()) {
+            return Err(SegmentError::AtEdge);
+        }
+        Ok(recut)
+    }
+
     /// Recuts the target's mask where its contrast (of the target's polarity) reaches `level`
-    /// grey levels, keeping the components that overlap the current mask, and repaints the mask.
-    pub fn refine<const W: usize>(
+    /// grey levels within `margin` px of its box, keeping the components that overlap the
+    /// current mask, and repaints the mask.
+    fn recut(
         &mut self,
         chip: &ChipView,
         target: &Target,
         level: f32,
         margin: u16,
-        mask: &mut BitMask<W>,
     ) -> Result<Target, SegmentError> {
+        let mask = &mut self.mask;
         let region = target
             .moments
             .bbox
@@ -220,7 +312,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Segmenter<MAX_RUNS, MAX_LAB
             }
         }
         mask.clear();
-        self.paint(&keep, mask);
+        paint(&self.labeler, &keep, mask);
         Ok(Target {
             class,
             moments,
@@ -229,12 +321,17 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Segmenter<MAX_RUNS, MAX_LAB
             components: target.components,
         })
     }
+}
 
-    fn paint<const W: usize>(&self, roots: &[u16], mask: &mut BitMask<W>) {
-        for run in self.labeler.runs() {
-            if roots.contains(&self.labeler.root(run.label)) {
-                mask.set_run(usize::from(run.y), usize::from(run.x0), usize::from(run.x1));
-            }
+/// Paints the runs of the components `roots` of `labeler` into `mask`.
+fn paint<const MAX_RUNS: usize, const MAX_LABELS: usize, const W: usize>(
+    labeler: &Labeler<MAX_RUNS, MAX_LABELS>,
+    roots: &[u16],
+    mask: &mut BitMask<W>,
+) {
+    for run in labeler.runs() {
+        if roots.contains(&labeler.root(run.label)) {
+            mask.set_run(usize::from(run.y), usize::from(run.x0), usize::from(run.x1));
         }
     }
 }

@@ -7,15 +7,14 @@
 //!
 //! | method | paper | transform | criterion |
 //! | --- | --- | --- | --- |
-//! | [`Method::SisCut`] | Algorithm 2, Eq. 7 | affine, 7 parameters, Nelder-Mead | grey-level divergence between the region and its dilation ring |
-//! | [`Method::GvfAsm`] | Algorithm 1 | similarity, closed form, iterated | boundary points pushed along the gradient vector flow |
+//! | [`GuidedMethod::SisCut`] | Algorithm 2, Eq. 7 | affine, 7 parameters, Nelder-Mead | grey-level divergence between the region and its dilation ring |
+//! | [`GuidedMethod::GvfAsm`] | Algorithm 1 | similarity, closed form, iterated | boundary points pushed along the gradient vector flow |
 //!
 //! Fixed memory: [`ShapeGuided`] owns every buffer (about 37 KiB at the capacities of
 //! [`crate::capacity`]); the work is bounded by the configured iteration counts.
 
 pub mod affine;
 pub mod boundary;
-pub mod feedback;
 pub mod grid;
 pub mod gvf;
 pub mod gvf_asm;
@@ -27,52 +26,14 @@ pub mod sis_cut;
 pub mod warp;
 
 pub use affine::{Affine2, AffineParams};
-pub use feedback::{LoopOutcome, LoopStop};
 pub use gvf_asm::{GvfAsm, GvfAsmConfig, GvfAsmResult};
 pub use prior::PriorShape;
 pub use sis_cut::{SisCut, SisCutConfig, SisCutResult};
 
 use crate::chip::ChipView;
 use crate::mask::BitMask;
+use crate::table_match::GuidedMethod;
 use warp::{WarpError, warp_prior};
-
-/// A shape-guided segmentation method.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Method {
-    /// Shape-incorporated segmentation with the graph-cut criterion (Algorithm 2).
-    SisCut,
-    /// Gradient-vector-flow active shape model (Algorithm 1).
-    GvfAsm,
-}
-
-impl Method {
-    /// Both methods.
-    pub const ALL: [Method; 2] = [Method::SisCut, Method::GvfAsm];
-
-    /// The method's name on command lines and in results: `sis-cut` or `gvf-asm`.
-    pub fn as_str(&self) -> &'static str {
-        match self {
-            Method::SisCut => "sis-cut",
-            Method::GvfAsm => "gvf-asm",
-        }
-    }
-}
-
-/// A name that is not `sis-cut` or `gvf-asm`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct UnknownMethod;
-
-impl core::str::FromStr for Method {
-    type Err = UnknownMethod;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Method::ALL
-            .into_iter()
-            .find(|m| m.as_str() == s)
-            .ok_or(UnknownMethod)
-    }
-}
 
 /// The tunables of both methods.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -115,7 +76,7 @@ pub enum ShapeGuidedError {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Refinement {
     /// The method that made it.
-    pub method: Method,
+    pub method: GuidedMethod,
     /// Chip px to chip px: the segmentation is this map applied to the prior.
     pub transform: Affine2,
     /// Largest displacement of the corners of the prior's extent box (along and across its
@@ -132,7 +93,7 @@ pub struct Refinement {
     pub area_px: usize,
 }
 
-/// The buffers of both methods; a pipeline owns one and calls [`ShapeGuided::refine`].
+/// The buffers of both methods; the table-match stage owns one and calls [`ShapeGuided::segment`].
 #[derive(Debug, Clone)]
 pub struct ShapeGuided {
     sis_cut: SisCut,
@@ -157,9 +118,9 @@ impl ShapeGuided {
     /// Segments `chip` guided by `prior` (a chip-sized mask of the model's silhouette) with
     /// `method`, writing the moved prior into `out` (resized to the chip). On an error `out`
     /// is left empty or unchanged.
-    pub fn refine<const W: usize>(
+    pub fn segment<const W: usize>(
         &mut self,
-        method: Method,
+        method: GuidedMethod,
         config: &ShapeGuidedConfig,
         chip: &ChipView,
         prior: &BitMask<W>,
@@ -170,7 +131,7 @@ impl ShapeGuided {
         }
         let shape = PriorShape::measure(prior).ok_or(ShapeGuidedError::EmptyPrior)?;
         let (transform, score_before, score_after, work) = match method {
-            Method::SisCut => {
+            GuidedMethod::SisCut => {
                 let r = self.sis_cut.run(chip, prior, &shape, &config.sis_cut)?;
                 (
                     r.transform,
@@ -179,7 +140,7 @@ impl ShapeGuided {
                     r.evaluations,
                 )
             }
-            Method::GvfAsm => {
+            GuidedMethod::GvfAsm => {
                 let r = self.gvf_asm.run(chip, prior, &shape, &config.gvf_asm)?;
                 (r.transform, r.edge_before, r.edge_after, r.iterations)
             }
@@ -221,10 +182,11 @@ mod tests {
 
     #[test]
     fn method_names_round_trip() {
-        for m in Method::ALL {
-            assert_eq!(m.as_str().parse::<Method>(), Ok(m));
+        for m in GuidedMethod::ALL {
+            assert_eq!(m.as_str().parse::<GuidedMethod>(), Ok(m));
         }
-        assert_eq!("none".parse::<Method>(), Err(UnknownMethod));
+        let unknown = "none".parse::<GuidedMethod>();
+        assert_eq!(unknown, Err(crate::table_match::UnknownMethod));
     }
 
     #[test]
@@ -236,12 +198,12 @@ mod tests {
         let mut sg = ShapeGuided::new();
         let config = ShapeGuidedConfig::DEFAULT;
         prior.reset(8, 7).unwrap();
-        for method in Method::ALL {
-            let r = sg.refine(method, &config, &chip, &prior, &mut out);
+        for method in GuidedMethod::ALL {
+            let r = sg.segment(method, &config, &chip, &prior, &mut out);
             assert_eq!(r, Err(ShapeGuidedError::SizeMismatch));
         }
         prior.reset(8, 8).unwrap();
-        let r = sg.refine(Method::GvfAsm, &config, &chip, &prior, &mut out);
+        let r = sg.segment(GuidedMethod::GvfAsm, &config, &chip, &prior, &mut out);
         assert_eq!(r, Err(ShapeGuidedError::EmptyPrior));
     }
 }

@@ -5,7 +5,10 @@
 use crate::sim::mesh::Mesh;
 use anyhow::{Context, ensure};
 use imade_core::lut::render::{self, Placement, View};
-use imade_core::lut::table::{self, CRC, HEADER_LEN, MAGIC, MODEL_ID_LEN, U_UNITS_PER_D, VERSION};
+use imade_core::lut::table::{
+    self, CRC, HEADER_LEN, MAGIC, MODEL_ID_LEN, U_UNITS_PER_D, VERSION, grid_roll_deg,
+    grid_tilt_deg,
+};
 use imade_core::mask::BitMask;
 use imade_core::model::ProjectileModel;
 use imade_core::pose::RAD;
@@ -142,8 +145,8 @@ pub fn build(source: &Source, grid: Grid) -> anyhow::Result<Vec<u8>> {
     for i in 0..grid.tilts {
         for j in 0..grid.rolls {
             let view = View {
-                tilt_deg: 90.0 * f32::from(i) / f32::from(grid.tilts - 1),
-                roll_deg: 90.0 * f32::from(j) / f32::from(grid.rolls),
+                tilt_deg: grid_tilt_deg(i.into(), grid.tilts.into()),
+                roll_deg: grid_roll_deg(j.into(), grid.rolls.into()),
             };
             entry(
                 source,

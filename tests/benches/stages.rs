@@ -3,7 +3,7 @@
 //! the bundled `table1-test` clip (175 frames; `IMADE_BENCH_CLIP` names another clip). Times are
 //! the benchmark thread's CPU time ([`common::cpu`]), one core.
 //!
-//! `cargo bench -p imade-core --bench stages`; `core/benches/compare-opencv` runs it beside
+//! `cargo bench -p imade-tests --bench stages`; `tests/benches/compare-opencv` runs it beside
 //! OpenCV's naive pipeline and prints the ratios.
 
 // Shared with the worst-case benchmarks; not every item is used here.
@@ -13,13 +13,12 @@ mod common;
 use common::cpu::ThreadCpuTime;
 use common::{Fixture, Frame};
 use criterion::{Criterion, criterion_group, criterion_main};
-use imade_core::closed_form::{self, ClosedForm};
+use imade_core::closed_form::Hypothesis;
 use imade_core::extremes::{self, Silhouette};
-use imade_core::lut;
-use imade_core::mask::ChipMask;
 use imade_core::segment::background::Background;
 use imade_core::segment::label::{Labeler, Rect};
 use imade_core::segment::{Segmenter, Target};
+use imade_core::table_match::TableMatch;
 use imade_core::{Config, Pipeline};
 use std::hint::black_box;
 use std::time::Duration;
@@ -30,41 +29,32 @@ struct Prepared<'a> {
     background: Background,
     target: Target,
     silhouette: Silhouette,
-    range_m: f32,
-    closed: ClosedForm,
+    hypothesis: Hypothesis,
 }
 
 fn prepare(fixture: &Fixture) -> Vec<Prepared<'_>> {
     let config = Config::DEFAULT;
     let mut segmenter: Box<Segmenter> = Box::default();
-    let mut mask: Box<ChipMask> = Box::default();
     fixture
         .frames
         .iter()
         .filter_map(|frame| {
             let chip = frame.view();
             let aim = (0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
-            let target = segmenter.detect(&chip, &config, aim, &mut mask).ok()?;
+            let target = segmenter.detect(&chip, &config.detect, aim).ok()?;
             let background = segmenter.background().clone();
+            let (model, camera) = (&fixture.model, &fixture.camera);
             let silhouette =
-                extremes::measure(&chip, &background, &target, &fixture.model, None).ok()?;
-            let range_m = frame.range_m.or_else(|| {
-                closed_form::range_from_diameter(&silhouette, &fixture.camera, &fixture.model)
-            })?;
-            let closed = closed_form::solve(
-                &silhouette,
-                frame.origin,
-                &fixture.camera,
-                &fixture.model,
-                range_m,
-            );
+                extremes::measure(&chip, &background, &target, model, None, &config.silhouette)
+                    .ok()?;
+            let hypothesis =
+                Hypothesis::solve(&silhouette, frame.origin, camera, model, frame.range_m)?;
             Some(Prepared {
                 frame,
                 background,
                 target,
                 silhouette,
-                range_m,
-                closed,
+                hypothesis,
             })
         })
         .collect()
@@ -110,7 +100,7 @@ fn stages(c: &mut Criterion<ThreadCpuTime>) {
         b.iter(|| {
             let p = next();
             let chip = p.frame.view();
-            let threshold = config.detect_sigma * p.background.sigma();
+            let threshold = config.detect.threshold_sigma * p.background.sigma();
             let whole = Rect {
                 x0: 0,
                 y0: 0,
@@ -127,11 +117,10 @@ fn stages(c: &mut Criterion<ThreadCpuTime>) {
     group.bench_function("detect", |b| {
         let mut next = cycle(&fixture.frames);
         let mut segmenter: Box<Segmenter> = Box::default();
-        let mut mask: Box<ChipMask> = Box::default();
         b.iter(|| {
             let chip = next().view();
             let aim = (0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
-            black_box(segmenter.detect(&black_box(chip), &config, aim, &mut mask)).is_ok()
+            black_box(segmenter.detect(&black_box(chip), &config.detect, aim)).is_ok()
         });
     });
 
@@ -145,6 +134,7 @@ fn stages(c: &mut Criterion<ThreadCpuTime>) {
                 &p.target,
                 &fixture.model,
                 None,
+                &config.silhouette,
             ))
         });
     });
@@ -153,16 +143,12 @@ fn stages(c: &mut Criterion<ThreadCpuTime>) {
         let mut next = cycle(&prepared);
         b.iter(|| {
             let p = next();
-            let silhouette = black_box(&p.silhouette);
-            let measured =
-                closed_form::range_from_diameter(silhouette, &fixture.camera, &fixture.model);
-            black_box(measured);
-            black_box(closed_form::solve(
-                silhouette,
+            black_box(Hypothesis::solve(
+                black_box(&p.silhouette),
                 p.frame.origin,
                 &fixture.camera,
                 &fixture.model,
-                p.range_m,
+                p.frame.range_m,
             ))
         });
     });
@@ -170,24 +156,24 @@ fn stages(c: &mut Criterion<ThreadCpuTime>) {
     if let Some(table) = fixture.table {
         group.bench_function("table_match", |b| {
             let mut next = cycle(&prepared);
+            let mut stage: Box<TableMatch> = Box::new(TableMatch::new().with_table(table));
+            // The match alone: no prior is drawn.
+            let match_config = imade_core::MatchConfig {
+                shape_prior: false,
+                ..config.table_match
+            };
             b.iter(|| {
                 let p = next();
                 let chip = black_box(p.frame.view());
-                let frame = lut::Frame {
-                    chip: &chip,
-                    background: &p.background,
-                    silhouette: &p.silhouette,
-                    class: p.target.class,
-                    origin: p.frame.origin,
-                };
                 let (camera, model) = (&fixture.camera, &fixture.model);
-                black_box(lut::refine(
-                    &frame,
-                    &table,
-                    model,
+                black_box(stage.measure(
+                    &chip,
+                    &p.background,
+                    p.target.class,
+                    &p.hypothesis,
                     camera,
-                    &p.closed,
-                    p.frame.range_m,
+                    model,
+                    &match_config,
                 ))
             });
         });

@@ -8,8 +8,8 @@
 //! when the range fixes `k`), with the derivatives of the entry's piecewise-linear width, and the entries are searched coarse to fine: tilts around the
 //! closed form's, then rolls, then the neighbouring tilts for a parabolic refinement.
 
-use super::table::{Entry, MAX_STATIONS, Table};
 use crate::extremes::axial_profile::WidthProfile;
+use crate::lut::table::{Entry, MAX_STATIONS, Table};
 
 /// Gauss-Hermite nodes (in sigma) and weights of the along-axis blur: the three-point rule
 /// (exact for cubics; the five-point rule cost 40 % more and moved no result beyond the tests'
@@ -241,8 +241,8 @@ pub fn search(
     start: Fit,
     fixed_scale: bool,
 ) -> Option<Match> {
-    let step = 90.0 / (table.tilts() - 1) as f32;
-    let centre = libm::roundf(tilt_deg.clamp(0.0, 90.0) / step) as usize;
+    let step = table.tilt_step_deg();
+    let centre = table.tilt_index(tilt_deg);
     let lo = centre.saturating_sub(TILT_REACH);
     let hi = (centre + TILT_REACH).min(table.tilts() - 1);
     let mid_roll = folded_rolls(table).last().unwrap_or(0) / 2;

@@ -5,12 +5,12 @@
 //!   projectile at 1 km (about 138 px long, as in the Table 1 clip), with a prior drawn at a wrong
 //!   placement: 3 px off, 6 % too large and turned by 4 deg;
 //! - `frame_refine/<method>`: the whole frame (`Pipeline::process` with the bundled table and
-//!   `Config.refine` = the method, `none` included), cycling through the bundled `table1-test`
+//!   `GuidedLoopConfig::method` = the method, `none` included), cycling through the bundled `table1-test`
 //!   clip (`IMADE_BENCH_CLIP` names another).
 //!
 //! Times are the benchmark thread's CPU time, one core.
 //!
-//! `cargo bench -p imade-core --bench shape_guided`
+//! `cargo bench -p imade-tests --bench shape_guided`
 
 // Shared with the other benchmarks; not every item is used here.
 #[allow(dead_code)]
@@ -19,8 +19,10 @@ mod common;
 use common::cpu::ThreadCpuTime;
 use criterion::{Criterion, criterion_group, criterion_main};
 use imade_core::lut::render::{Placement, View, draw};
-use imade_core::shape_guided::{Method, ShapeGuided, ShapeGuidedConfig};
-use imade_core::{ChipMask, ChipView, Config, Pipeline, REF_1378X80, RefineConfig, RefineMethod};
+use imade_core::shape_guided::{ShapeGuided, ShapeGuidedConfig};
+use imade_core::{
+    ChipMask, ChipView, Config, GuidedLoopConfig, GuidedMethod, MatchConfig, Pipeline, REF_1378X80,
+};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -97,10 +99,10 @@ fn bench(c: &mut Criterion<ThreadCpuTime>) {
     let mut out = ChipMask::new();
     let mut group = c.benchmark_group("shape_guided");
     group.sample_size(20);
-    for method in Method::ALL {
+    for method in GuidedMethod::ALL {
         group.bench_function(method.as_str(), |b| {
             b.iter(|| {
-                let r = sg.refine(
+                let r = sg.segment(
                     method,
                     &config,
                     black_box(&chip),
@@ -121,12 +123,15 @@ fn frame_refine(c: &mut Criterion<ThreadCpuTime>) {
         .expect("the clip's projectile has a bundled table");
     let mut group = c.benchmark_group("frame_refine");
     group.sample_size(20);
-    for method in RefineMethod::ALL {
-        group.bench_function(method.as_str(), |b| {
+    for method in [None, Some(GuidedMethod::SisCut), Some(GuidedMethod::GvfAsm)] {
+        group.bench_function(method.map_or("none", |m| m.as_str()), |b| {
             let config = Config {
-                refine: RefineConfig {
-                    method,
-                    ..RefineConfig::DEFAULT
+                table_match: MatchConfig {
+                    guided: GuidedLoopConfig {
+                        method,
+                        ..GuidedLoopConfig::DEFAULT
+                    },
+                    ..MatchConfig::DEFAULT
                 },
                 ..Config::DEFAULT
             };

@@ -1,5 +1,6 @@
-//! The refinement loop's two pieces (the pipeline runs the rounds): the shape-guided transform
-//! carried to the table match's input, and the stop rule that judges a re-match.
+//! The shape-guided loop (the source paper's Fig. 1): rounds of segmentation guided by the prior
+//! and table match again, the segmentation's transform carried to the match's input, and the
+//! stop rule that judges each re-match.
 //!
 //! The table match measures the chip's grey-level width profile along the silhouette's axis,
 //! with the measured nose tip and tail base as its extreme-point term. The segmentation is the
@@ -7,26 +8,95 @@
 //! base: those moved ends give the new axis and the new extreme points, and, through
 //! [`closed_form::from_ends`], the new starting tilt. The grey levels stay the chip's own.
 
-use super::affine::Affine2;
-use super::{Method, Refinement, ShapeGuidedError};
+use super::pose::{self, MatchInput, MatchedPose};
+use super::{GuidedLoopConfig, GuidedMethod, MatchConfig, TableMatch};
 use crate::camera::Camera;
 use crate::closed_form::{self, ClosedForm};
-use crate::config::{RefineConfig, RefineMethod};
 use crate::extremes::{Axis, Silhouette};
-use crate::lut::Refined;
 use crate::model::ProjectileModel;
 use crate::pose::RAD;
+use crate::shape_guided::{Affine2, Refinement, ShapeGuidedError};
 use core::cmp::Ordering;
 use nalgebra::Vector2;
 
-impl RefineMethod {
-    /// The shape-guided method, or None for no refinement.
-    pub fn method(self) -> Option<Method> {
-        match self {
-            RefineMethod::None => None,
-            RefineMethod::SisCut => Some(Method::SisCut),
-            RefineMethod::GvfAsm => Some(Method::GvfAsm),
-        }
+impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
+    /// The loop from the first match `first` (whose prior is drawn; `range_m` the known range,
+    /// if any): each round's re-match is kept only when the stop rule accepts it. Returns the
+    /// match kept.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn guided_loop_from(
+        &mut self,
+        input: &MatchInput,
+        range_m: Option<f32>,
+        camera: &Camera,
+        model: &ProjectileModel,
+        config: &MatchConfig,
+        first: MatchedPose,
+    ) -> MatchedPose {
+        let limits = &config.guided;
+        let (Some(method), Some(table)) = (limits.method, self.table) else {
+            return first;
+        };
+        let mut outcome = LoopOutcome::start(method, &first);
+        let (mut current, mut measured) = (first, *input.silhouette);
+        outcome.stop = loop {
+            if outcome.rounds >= limits.max_rounds {
+                break LoopStop::Rounds;
+            }
+            outcome.rounds += 1;
+            let segmentation = self.guided.segment(
+                method,
+                &limits.segmentation,
+                input.chip,
+                &self.prior,
+                &mut self.guided_mask,
+            );
+            let segmentation = match segmentation {
+                Ok(s) => s,
+                Err(e) => {
+                    self.guided_mask.clone_from(&self.prior);
+                    break LoopStop::Failed(e);
+                }
+            };
+            outcome.last = Some(segmentation);
+            if segmentation.shift_px < limits.identity_px {
+                break LoopStop::Converged;
+            }
+            let Some(moved) = moved_input(
+                &measured,
+                &current,
+                &segmentation.transform,
+                input.origin,
+                camera,
+                model,
+            ) else {
+                break LoopStop::Degenerate;
+            };
+            let moved_frame = MatchInput {
+                silhouette: &moved.silhouette,
+                ..*input
+            };
+            let Ok(next) = pose::match_pose(
+                &moved_frame,
+                &table,
+                model,
+                camera,
+                &moved.closed,
+                range_m,
+                config,
+            ) else {
+                break LoopStop::NoMatch;
+            };
+            if let Err(stop) = judge(&current, &next, limits) {
+                break stop;
+            }
+            outcome.accepted += 1;
+            (current, measured) = (next, moved.silhouette);
+            self.draw_prior(input.chip, &current);
+        };
+        outcome.rms_px = current.matched.rms_px;
+        self.outcome = Some(outcome);
+        current
     }
 }
 
@@ -34,7 +104,7 @@ impl RefineMethod {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum LoopStop {
-    /// The segmentation moved the prior less than [`RefineConfig::identity_px`].
+    /// The segmentation moved the prior less than [`GuidedLoopConfig::identity_px`].
     Converged,
     /// The segmentation failed (the prior is kept as the segmentation).
     Failed(ShapeGuidedError),
@@ -46,7 +116,7 @@ pub enum LoopStop {
     Disagrees,
     /// The re-match fits the width profile worse than the current match.
     WorseResidual,
-    /// [`RefineConfig::max_rounds`] rounds were made.
+    /// [`GuidedLoopConfig::max_rounds`] rounds were made.
     Rounds,
 }
 
@@ -55,7 +125,7 @@ pub enum LoopStop {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct LoopOutcome {
     /// The method.
-    pub method: Method,
+    pub method: GuidedMethod,
     /// Segmentations made.
     pub rounds: u8,
     /// Re-matches accepted (the pose is the last accepted one, or the first match).
@@ -72,7 +142,7 @@ pub struct LoopOutcome {
 
 impl LoopOutcome {
     /// A loop with `method` that has not run yet, from the first match.
-    pub fn start(method: Method, first: &Refined) -> LoopOutcome {
+    pub fn start(method: GuidedMethod, first: &MatchedPose) -> LoopOutcome {
         LoopOutcome {
             method,
             rounds: 0,
@@ -101,7 +171,7 @@ pub struct Moved {
 /// moved ends coincide or are not finite.
 pub fn moved_input(
     silhouette: &Silhouette,
-    matched: &Refined,
+    matched: &MatchedPose,
     transform: &Affine2,
     origin: (i32, i32),
     camera: &Camera,
@@ -164,7 +234,11 @@ pub fn moved_input(
 
 /// The stop rule: `next` replaces `current` only when its tilt and projected ends stay within
 /// `config`'s limits of `current`'s and its RMS width residual is not larger.
-pub fn judge(current: &Refined, next: &Refined, config: &RefineConfig) -> Result<(), LoopStop> {
+pub fn judge(
+    current: &MatchedPose,
+    next: &MatchedPose,
+    config: &GuidedLoopConfig,
+) -> Result<(), LoopStop> {
     let tilt_change = libm::fabsf(next.matched.tilt_deg - current.matched.tilt_deg);
     let end_shift = current
         .ends
@@ -190,10 +264,11 @@ pub fn judge(current: &Refined, next: &Refined, config: &RefineConfig) -> Result
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lut::lambert::LambertSection;
-    use crate::lut::matcher::Match;
+    use crate::extremes::SilhouetteConfig;
     use crate::lut::render::{Placement, View};
     use crate::model::REF_1378X80;
+    use crate::table_match::search::Match;
+    use crate::table_match::section::LambertSection;
 
     const CAMERA: Camera = Camera {
         fx: 100_000.0,
@@ -211,6 +286,10 @@ mod tests {
                 dir: (1.0, 0.0),
             },
             nose_t: 60.0,
+            nose_ramp_offset_m: {
+                let (low, high) = SilhouetteConfig::DEFAULT.nose_ramp;
+                REF_1378X80.nose_ramp_zero_offset_m(low, high)
+            },
             tail_t: -64.0,
             diameter_px: 8.0,
             contrast: 50.0,
@@ -221,11 +300,11 @@ mod tests {
 
     /// A match with its nose tip at chip (190, 128) and tail base at (62, 128), residual `rms_px`
     /// and tilt `tilt_deg`.
-    fn matched(tilt_deg: f32, rms_px: f32, shift_px: f32) -> Refined {
+    fn matched(tilt_deg: f32, rms_px: f32, shift_px: f32) -> MatchedPose {
         let ends = [(190.0 + shift_px, 128.0), (62.0, 128.0)]
             .map(|(x, y)| (x + ORIGIN.0 as f32, y + ORIGIN.1 as f32));
         let to = |(x, y): (f32, f32)| Vector2::new(x, y);
-        Refined {
+        MatchedPose {
             solution: closed_form::from_ends(to(ends[0]), to(ends[1]), &CAMERA, 1.378, 1000.0),
             range_m: 1000.0,
             matched: Match {
@@ -302,7 +381,7 @@ mod tests {
 
     #[test]
     fn the_stop_rule_keeps_only_agreeing_matches_that_fit_no_worse() {
-        let limits = RefineConfig::DEFAULT;
+        let limits = GuidedLoopConfig::DEFAULT;
         let current = matched(20.0, 1.0, 0.0);
         assert_eq!(judge(&current, &matched(24.0, 0.9, 2.0), &limits), Ok(()));
         assert_eq!(judge(&current, &matched(20.0, 1.0, 0.0), &limits), Ok(()));

@@ -5,7 +5,7 @@
 //! table where there is one. Each case's status is printed once; the slowest case bounds the
 //! frame time on the host.
 //!
-//! `cargo bench -p imade-core --bench worst_cases`; with `IMADE_WORST_CLIP=DIR` the chips of
+//! `cargo bench -p imade-tests --bench worst_cases`; with `IMADE_WORST_CLIP=DIR` the chips of
 //! the fixture's size and depth are also written to DIR as an imade-clip/1 clip, one frame each,
 //! for `firmware-sim/run` to count their instructions on the Cortex-M4F.
 

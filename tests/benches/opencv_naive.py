@@ -117,7 +117,7 @@ def main():
     summary = {"chips": len(chips), "size": [w, h], "opencv_version": cv2.__version__,
                "opencv": opencv, "imade_ns": imade}
     if imade:
-        print("\nimade (criterion, `cargo bench -p imade-core --bench stages`)")
+        print("\nimade (criterion, `cargo bench -p imade-tests --bench stages`)")
         names = {"background": "sky model and noise", "label": "labeling (threshold and runs)",
                  "detect": "segmentation (model, labeling, selection)", "extremes": "extremes and diameter",
                  "closed_form": "closed form", "table_match": "table match",

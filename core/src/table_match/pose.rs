@@ -1,0 +1,215 @@
+//! One table match: from the closed-form hypothesis to the pose of the best-matching entry.
+//!
+//! 1. [`super::section`]: the cylindrical stretch's cross-section with Lambertian shading gives
+//!    the section's mean contrast (and an unbiased diameter);
+//! 2. the contrast summed across the axis per bin, over that mean contrast, is the silhouette's
+//!    width profile along the whole body, nose, fins and base included;
+//! 3. [`super::search`]: the table's entries are fitted to that profile: tilt, roll (folded),
+//!    and the body origin along the axis, at the scale of the range (or of the shaded diameter);
+//! 4. the pose follows from the matched ends and scale ([`closed_form::from_ends`]).
+
+use super::MatchConfig;
+use super::search::{self, Fit, Match, Measured};
+use super::section::{self, LambertSection};
+use crate::camera::Camera;
+use crate::chip::ChipView;
+use crate::closed_form::{self, ClosedForm};
+use crate::extremes::axial_profile::WidthProfile;
+use crate::extremes::cross_profile::{self, Stretch};
+use crate::extremes::{Axis, Silhouette};
+use crate::lut::render::{Placement, View};
+use crate::lut::table::Table;
+use crate::model::ProjectileModel;
+use crate::pose::RAD;
+use crate::segment::background::Background;
+use crate::segment::select::Shape;
+use nalgebra::Vector2;
+
+/// Why the table match gave no pose.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum MatchError {
+    /// The cylindrical stretch is too short or its section could not be fitted.
+    NoSection,
+    /// No entry fitted the profile.
+    NoMatch,
+    /// The matched scale gives no finite range.
+    NoRange,
+}
+
+/// What the table match measured.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MatchedPose {
+    /// The refined pose (both yaw candidates) at `range_m`.
+    pub solution: ClosedForm,
+    /// Slant range: the given one, or the one of the matched scale, m.
+    pub range_m: f32,
+    /// The best entry.
+    pub matched: Match,
+    /// The cylinder's shaded cross-section.
+    pub section: LambertSection,
+    /// The matched silhouette's attitude.
+    pub view: View,
+    /// Where the matched entry's silhouette lies on the chip (px per body diameter).
+    pub placement: Placement,
+    /// The projected nose tip and tail base, full-frame px.
+    pub ends: [(f32, f32); 2],
+}
+
+/// One frame's measurements, as the table match needs them.
+pub struct MatchInput<'a> {
+    /// The chip.
+    pub chip: &'a ChipView<'a>,
+    /// Its sky model.
+    pub background: &'a Background,
+    /// The silhouette measured by [`crate::extremes`].
+    pub silhouette: &'a Silhouette,
+    /// The body's contrast sign (+1 brighter than the sky, -1 darker).
+    pub class: i8,
+    /// Full-frame pixel of the chip's top-left.
+    pub origin: (i32, i32),
+}
+
+/// Matches `table` to the frame, starting from the closed-form `closed`; `range_m` is the known
+/// range, if any.
+pub fn match_pose(
+    frame: &MatchInput,
+    table: &Table,
+    model: &ProjectileModel,
+    camera: &Camera,
+    closed: &ClosedForm,
+    range_m: Option<f32>,
+    config: &MatchConfig,
+) -> Result<MatchedPose, MatchError> {
+    let sil = frame.silhouette;
+    let section = cylinder_section(frame, model, config)?;
+    let axis = sil.axis;
+    let sigma = section.sigma_px;
+    let across = Vector2::new(-axis.dir.1, axis.dir.0);
+    let d_px = section.diameter_px;
+    let reach = libm::fabsf(sil.nose_t).max(libm::fabsf(sil.tail_t)) + 4.0 * sigma + 6.0;
+    let band = 0.5 * d_px * model.fin_tip_radius_m / model.radius_m() + 3.0 * sigma + 1.5;
+    let profile = WidthProfile::build(
+        frame.chip,
+        frame.background,
+        &axis,
+        frame.class,
+        section.mean_contrast,
+        reach,
+        band,
+    );
+    let margin = 3.0 * sigma + 3.0;
+    let aspect = closed.aspect_deg * RAD;
+    let px_per_m = d_px / model.diameter_m;
+    let ends_t =
+        closed_form::corrected_ends(sil, model, libm::sinf(aspect), libm::cosf(aspect), px_per_m);
+    let measured = Measured {
+        profile: &profile,
+        bins: (
+            profile.bin_of(sil.tail_t - margin),
+            (profile.bin_of(sil.nose_t + margin) + 1).min(profile.len()),
+        ),
+        // The profile's linear split between bins adds a 1-px triangle: variance 1/6.
+        sigma_px: libm::sqrtf(sigma * sigma + 1.0 / 6.0),
+        ends_t,
+        end_weight: config.end_weight,
+        half_length_d: 0.5 * model.length_m / model.diameter_m,
+    };
+    let px_per_d_known = range_m.map(|r| {
+        model.diameter_m / (r * camera.normalized_length(1.0, across)).max(f32::MIN_POSITIVE)
+    });
+    // The scale: the range's where it is known, else the shaded section's diameter (the width
+    // profile's own scale leans on the fins' unknown contrast and came out 1-3 % low).
+    let start = Fit {
+        px_per_d: px_per_d_known.unwrap_or(d_px),
+        origin_t: 0.5 * (sil.nose_t + sil.tail_t),
+        cost: 0.0,
+    };
+    let matched = search::search(table, &measured, 90.0 - closed.aspect_deg, start, true)
+        .ok_or(MatchError::NoMatch)?;
+    let range = match range_m {
+        Some(r) => r,
+        None => model.diameter_m / camera.normalized_length(matched.px_per_d, across),
+    };
+    if !(range.is_finite() && range > 0.0) {
+        return Err(MatchError::NoRange);
+    }
+    let ends = matched_ends(&axis, &matched, model, frame.origin);
+    Ok(MatchedPose {
+        solution: closed_form::from_ends(ends[0], ends[1], camera, model.length_m, range),
+        range_m: range,
+        matched,
+        section,
+        view: View {
+            tilt_deg: matched.tilt_deg,
+            roll_deg: matched.roll_deg,
+        },
+        placement: Placement {
+            origin: axis.point(matched.origin_t),
+            dir: axis.dir,
+            px_per_unit: matched.px_per_d,
+        },
+        ends: ends.map(|p| (p.x, p.y)),
+    })
+}
+
+impl MatchedPose {
+    /// The same match at another slant range (the smoothed one of the temporal stage).
+    pub fn at_range(&self, camera: &Camera, model: &ProjectileModel, range_m: f32) -> ClosedForm {
+        let [nose, tail] = self.ends.map(|(x, y)| Vector2::new(x, y));
+        closed_form::from_ends(nose, tail, camera, model.length_m, range_m)
+    }
+}
+
+/// The nose tip and tail base of the matched silhouette, full-frame px.
+fn matched_ends(
+    axis: &Axis,
+    matched: &Match,
+    model: &ProjectileModel,
+    origin: (i32, i32),
+) -> [Vector2<f32>; 2] {
+    let half = 0.5 * model.length_m / model.diameter_m
+        * libm::cosf(matched.tilt_deg * RAD)
+        * matched.px_per_d;
+    let o = Vector2::new(origin.0 as f32, origin.1 as f32);
+    let at = |t: f32| {
+        let (x, y) = axis.point(t);
+        o + Vector2::new(x, y)
+    };
+    [at(matched.origin_t + half), at(matched.origin_t - half)]
+}
+
+/// The shaded cross-section of the cylinder between the nose shoulder and the fins.
+fn cylinder_section(
+    frame: &MatchInput,
+    model: &ProjectileModel,
+    config: &MatchConfig,
+) -> Result<LambertSection, MatchError> {
+    let sil = frame.silhouette;
+    let length = sil.nose_t - sil.tail_t;
+    let margin = config.cylinder_margin;
+    let t0 = sil.tail_t + length * (model.fin_root_chord_m / model.length_m + margin);
+    let t1 = sil.nose_t - length * (model.nose_length_m / model.length_m + margin);
+    if t1 - t0 < config.min_cylinder_px || t1.is_nan() || t0.is_nan() {
+        return Err(MatchError::NoSection);
+    }
+    let shape = Shape {
+        centre: sil.axis.centre,
+        axis: sil.axis.dir,
+        major_sd: 0.0,
+        minor_sd: 0.0,
+    };
+    let half_width = 0.5 * sil.diameter_px + 4.0 * sil.sigma_px + 2.0;
+    let binned = cross_profile::bin(
+        frame.chip,
+        frame.background,
+        &shape,
+        frame.class,
+        Stretch { t0, t1 },
+        half_width,
+        config.section_bin_px,
+    );
+    let start = cross_profile::fit_binned(&binned).ok_or(MatchError::NoSection)?;
+    section::fit(&binned, &start).ok_or(MatchError::NoSection)
+}
