@@ -295,3 +295,152 @@ fn an_intact_clip_exits_zero_quietly_with_masks_when_asked() {
         );
     }
 }
+
+/// The results rows of `out/results.csv` by frame number (the whole line).
+fn result_lines(out: &Path) -> Vec<(String, String)> {
+    std::fs::read_to_string(out.join("results.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| (l.split(',').next().unwrap().to_owned(), l.to_owned()))
+        .collect()
+}
+
+/// Every file and folder under `dir`, relative to it, sorted.
+fn tree(dir: &Path) -> Vec<PathBuf> {
+    fn walk(root: &Path, dir: &Path, into: &mut Vec<PathBuf>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            into.push(path.strip_prefix(root).unwrap().to_path_buf());
+            if path.is_dir() && !path.is_symlink() {
+                walk(root, &path, into);
+            }
+        }
+    }
+    let mut paths = Vec::new();
+    walk(dir, dir, &mut paths);
+    paths.sort();
+    paths
+}
+
+#[cfg(unix)]
+#[test]
+fn paths_outside_the_clip_folder_are_refused_and_the_other_frames_run() {
+    let s = scratch();
+    let scratch_dir = s.clip.parent().unwrap().to_path_buf();
+    // Valid PNGs outside the clip folder: a chip of the right size and a mask, so that only the
+    // containment check can refuse them.
+    let outside_chip = scratch_dir.join("outside.png");
+    std::fs::copy(s.clip.join("chips/000054.png"), &outside_chip).unwrap();
+    std::fs::copy(
+        s.clip.join("masks/000078.png"),
+        scratch_dir.join("outside-mask.png"),
+    )
+    .unwrap();
+    let frames: Vec<String> = (3..=8).map(frame_on_line).collect();
+    set_field(&s.clip, 3, 2, "../../../../etc/passwd");
+    set_field(&s.clip, 4, 2, "/etc/hostname");
+    // The chip path is the usual one, but the file is a symbolic link out of the folder.
+    std::fs::remove_file(s.clip.join("chips/000054.png")).unwrap();
+    std::os::unix::fs::symlink(&outside_chip, s.clip.join("chips/000054.png")).unwrap();
+    set_field(&s.clip, 6, 2, "chips/../../outside.png");
+    set_field(&s.clip, 7, 2, outside_chip.to_str().unwrap());
+    // `imade run` does not read the ground-truth masks; `imade eval` refuses this one.
+    set_field(&s.clip, 8, 12, "../outside-mask.png");
+    let clip_before = tree(&s.clip);
+
+    let output = Command::new(env!("CARGO_BIN_EXE_imade"))
+        .args(["run", "--save-masks"])
+        .arg(&s.clip)
+        .arg("--out")
+        .arg(&s.out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(output.status.code(), Some(3), "{stderr}");
+
+    let bad = &frames[..5];
+    let rows = result_lines(&s.out);
+    assert_eq!(rows.len(), frames_lines(&s.clip).len() - 1);
+    for (frame, line) in &rows {
+        let status = line.split(',').nth(1).unwrap();
+        if bad.contains(frame) {
+            assert_eq!(status, "bad_chip", "{line}");
+        } else {
+            assert_ne!(status, "bad_chip", "{line}");
+            assert_ne!(status, "bad_row", "{line}");
+        }
+    }
+    // Each refusal is reported, names its frame and says why, and nothing was decoded.
+    let summary: RunSummary =
+        serde_json::from_str(&std::fs::read_to_string(s.out.join("summary.json")).unwrap())
+            .unwrap();
+    let problems = &summary.clips[0].problems;
+    assert_eq!(problems.len(), bad.len(), "{problems:?}");
+    for (problem, frame) in problems.iter().zip(bad) {
+        assert_eq!(problem.frame.map(|f| f.to_string()).as_ref(), Some(frame));
+        assert!(
+            problem.message.contains("outside the clip folder"),
+            "{}",
+            problem.message
+        );
+        assert!(!problem.message.contains("decoding"), "{}", problem.message);
+        assert!(stderr.contains(&problem.message), "{stderr}");
+    }
+    assert!(problems[0].message.contains("../../../../etc/passwd"));
+    assert!(problems[1].message.contains("/etc/hostname"));
+    assert!(problems[2].message.contains("outside.png"));
+
+    // The intact frames are as in a run where the refused frames' chips are merely missing (the
+    // pipeline keeps state between frames, so that is the run to compare with): the same status,
+    // mostly ok, and the same poses, the frame with the escaping mask included.
+    let baseline = scratch();
+    for line in 3..=7 {
+        set_field(&baseline.clip, line, 2, "chips/missing.png");
+    }
+    let output = Command::new(env!("CARGO_BIN_EXE_imade"))
+        .arg("run")
+        .arg(&baseline.clip)
+        .arg("--out")
+        .arg(&baseline.out)
+        .output()
+        .unwrap();
+    assert_eq!(output.status.code(), Some(3));
+    assert_eq!(rows, result_lines(&baseline.out));
+    let ok = rows.iter().filter(|(_, l)| l.contains(",ok,")).count();
+    assert!(ok > (rows.len() - bad.len()) / 2, "{rows:?}");
+    assert!(
+        rows.iter()
+            .any(|(f, l)| *f == frames[5] && l.contains(",ok,"))
+    );
+
+    // Nothing was written outside --out: the clip folder and the scratch folder are unchanged.
+    assert_eq!(tree(&s.clip), clip_before);
+    let mut top: Vec<_> = std::fs::read_dir(&scratch_dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    top.sort();
+    assert_eq!(top, ["clip", "out", "outside-mask.png", "outside.png"]);
+
+    // `imade eval` reads the ground-truth masks: the escaping one is refused, named.
+    let output = Command::new(env!("CARGO_BIN_EXE_imade"))
+        .arg("eval")
+        .arg(&s.clip)
+        .arg("--results")
+        .arg(s.out.join("results.csv"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    for needle in [
+        "outside the clip folder",
+        "../outside-mask.png",
+        &format!("frame {}", frames[5]),
+    ] {
+        assert!(stderr.contains(needle), "{needle:?} not in {stderr}");
+    }
+    assert!(!s.out.join("eval.json").exists());
+}

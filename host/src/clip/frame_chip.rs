@@ -1,11 +1,14 @@
 //! A frame row's chip, loaded with every check made before the core sees it.
 
-use super::{ChipImage, Clip, FrameRow, load_chip};
+use super::{ChipImage, Clip, ClipPathError, FrameRow, load_chip};
 use std::path::PathBuf;
 
 /// Why a frame's chip cannot be given to the pipeline (its results row says `bad_chip`).
 #[derive(Debug, thiserror::Error)]
 pub enum FrameChipError {
+    /// The chip path is absolute or leads outside the clip folder, or names no file.
+    #[error(transparent)]
+    Path(#[from] ClipPathError),
     /// The PNG could not be read or is not grayscale.
     #[error(transparent)]
     Unreadable(#[from] anyhow::Error),
@@ -58,10 +61,11 @@ impl FrameChip {
 }
 
 impl Clip {
-    /// Loads `row`'s chip and checks it as the pipeline needs it: readable, of `clip.json`'s
-    /// size, its origin an i32 pair, and accepted by the core's `ChipView`.
+    /// Loads `row`'s chip and checks it as the pipeline needs it: inside the clip folder (checked
+    /// before it is opened), readable, of `clip.json`'s size, its origin an i32 pair, and accepted
+    /// by the core's `ChipView`.
     pub fn load_frame_chip(&self, row: &FrameRow) -> Result<FrameChip, FrameChipError> {
-        let path = self.path_of(&row.chip);
+        let path = self.resolve(&row.chip)?;
         let image = load_chip(&path)?;
         let expected = self.meta.chip;
         if (image.width, image.height) != (expected.width, expected.height) {

@@ -3,13 +3,15 @@
 //!
 //! A clip is a folder with `clip.json` (camera and clip metadata), `frames.csv` (one row per frame)
 //! and the chips as 8-bit or 16-bit grayscale PNGs. Reading is per frame and lossless about errors:
-//! a malformed row or a corrupt chip is an error for that frame only.
+//! a malformed row or a corrupt chip is an error for that frame only. A path named in the clip is
+//! opened only through [`Clip::resolve`], which refuses one that leads outside the clip folder.
 
 mod chip_image;
 mod frame_chip;
 mod frames;
 mod mask_png;
 mod meta;
+mod paths;
 mod results;
 mod writer;
 
@@ -18,6 +20,7 @@ pub use frame_chip::{FrameChip, FrameChipError};
 pub use frames::{FrameRow, FrameRowError, GroundTruth, read_frames};
 pub use mask_png::{mask_image, save_mask};
 pub use meta::{CameraMeta, ChipSize, ClipMeta, FORMAT_ID, read_meta};
+pub use paths::{ClipPathError, resolve_clip_path};
 pub use results::{ResultRow, read_results};
 pub use writer::{ClipWriter, write_atomically};
 
@@ -62,7 +65,15 @@ impl Clip {
         })
     }
 
-    /// The absolute path of a file named relative to the clip folder.
+    /// The file named by `relative` (a path read from the clip), resolved inside the clip folder;
+    /// an absolute path or one leading outside the folder is refused (see [`resolve_clip_path`]).
+    /// Open a clip's files through this.
+    pub fn resolve(&self, relative: &str) -> Result<PathBuf, ClipPathError> {
+        resolve_clip_path(&self.dir, relative)
+    }
+
+    /// The clip folder joined with `relative`, unchecked: for messages. Files are opened through
+    /// [`Clip::resolve`].
     pub fn path_of(&self, relative: &str) -> PathBuf {
         self.dir.join(relative)
     }

@@ -5,7 +5,7 @@ use super::paper::PaperIou;
 use super::stats::{BoxStats, box_stats};
 use crate::clip::{Clip, load_mask};
 use crate::stages::{MaskStage, STAGES, mask_file_name};
-use anyhow::bail;
+use anyhow::{Context, bail};
 use serde::Serialize;
 use std::path::Path;
 
@@ -87,7 +87,9 @@ fn evaluate_stage(
     for &(frame, gt_path) in truth {
         let path = dir.join(mask_file_name(frame));
         let value = if path.is_file() {
-            let gt_path = clip.path_of(gt_path);
+            let gt_path = clip
+                .resolve(gt_path)
+                .with_context(|| format!("ground-truth mask of frame {frame}"))?;
             let (gw, gh, gt) = load_mask(&gt_path)?;
             let (w, h, mask) = load_mask(&path)?;
             if (w, h) != (gw, gh) {

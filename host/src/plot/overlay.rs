@@ -40,7 +40,7 @@ pub fn plot(clip: &Clip, results_dir: &Path, path: &Path) -> anyhow::Result<bool
     let mut captions = Vec::new();
     for k in 0..count {
         let row = framed[k * (framed.len() - 1) / (count - 1).max(1)];
-        let chip = load_chip(&clip.path_of(&row.chip))?;
+        let chip = load_chip(&clip.resolve(&row.chip)?)?;
         let read = |folder: &str| -> anyhow::Result<Option<Vec<bool>>> {
             let p = results_dir.join(folder).join(mask_file_name(row.frame));
             if !p.is_file() {

@@ -222,10 +222,10 @@ fn written_clip_reads_back_with_its_truth() {
         assert_eq!(row.frame, plan.frame);
         assert_eq!(truth.yaw_deg, plan.attitude.yaw_deg);
         assert_eq!(row.range_m, Some(plan.body.translation.norm()));
-        let chip = crate::clip::load_chip(&clip.path_of(&row.chip)).unwrap();
+        let chip = crate::clip::load_chip(&clip.resolve(&row.chip).unwrap()).unwrap();
         assert_eq!((chip.width, chip.height), (96, 96));
         let (_, _, mask) =
-            crate::clip::load_mask(&clip.path_of(row.gt_mask.as_ref().unwrap())).unwrap();
+            crate::clip::load_mask(&clip.resolve(row.gt_mask.as_ref().unwrap()).unwrap()).unwrap();
         assert!(mask.iter().filter(|&&m| m).count() > 100);
         // The truth pose projects the body origin inside the chip.
         let t = Vec3::new(truth.tx_m, truth.ty_m, truth.tz_m);
