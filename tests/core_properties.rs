@@ -207,7 +207,7 @@ proptest! {
     fn every_result_keeps_the_invariants(scene in scene(), polarity in 0usize..3) {
         let config = Config {
             detect: DetectConfig {
-                polarity: [BodyPolarity::Dark, BodyPolarity::Bright, BodyPolarity::Auto][polarity],
+                polarity: [Some(BodyPolarity::Dark), Some(BodyPolarity::Bright), None][polarity],
                 ..DetectConfig::DEFAULT
             },
             ..Config::DEFAULT

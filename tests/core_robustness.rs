@@ -139,7 +139,7 @@ fn finds_a_bright_body_on_a_dark_sky() {
     let (pixels, truth) = render(&p, origin, &style(40.0, 200.0), 11);
     let config = Config {
         detect: DetectConfig {
-            polarity: BodyPolarity::Bright,
+            polarity: Some(BodyPolarity::Bright),
             ..DetectConfig::DEFAULT
         },
         ..Config::DEFAULT

@@ -192,7 +192,7 @@ fn clipped_skies_and_bodies_are_measured() {
     );
     let bright = Config {
         detect: DetectConfig {
-            polarity: BodyPolarity::Bright,
+            polarity: Some(BodyPolarity::Bright),
             ..DetectConfig::DEFAULT
         },
         ..Config::DEFAULT

@@ -1,4 +1,4 @@
-//! Pinhole camera intrinsics (../shared/spec/geometry.md): `u = fx X/Z + cx`, `v = fy Y/Z + cy`,
+//! Pinhole camera intrinsics (`docs/geometry.md`): `u = fx X/Z + cx`, `v = fy Y/Z + cy`,
 //! pixel centres at integers, no distortion.
 
 use nalgebra::{Matrix3, Vector2, Vector3};

@@ -15,8 +15,16 @@ pub enum BodyPolarity {
     Dark,
     /// Brighter than the sky (a sunlit body against a dark sky).
     Bright,
-    /// Either: the more elongated candidate wins; later frames keep the polarity first chosen.
-    Auto,
+}
+
+impl BodyPolarity {
+    /// The sign of the body's contrast against the sky: -1 dark, +1 bright.
+    pub fn sign(self) -> f32 {
+        match self {
+            BodyPolarity::Dark => -1.0,
+            BodyPolarity::Bright => 1.0,
+        }
+    }
 }
 
 /// How a range measurement is used.

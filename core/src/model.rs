@@ -1,6 +1,6 @@
 //! The a priori 3D model of the projectile: the only place its dimensions live.
 //!
-//! Body frame B (../shared/spec/geometry.md): origin at the middle of the overall length, +x_B
+//! Body frame B (`docs/geometry.md`): origin at the middle of the overall length, +x_B
 //! along the axis towards the nose.
 
 /// External geometry of a finned projectile with a tangent-ogive nose and a cylindrical body.
@@ -27,7 +27,7 @@ pub struct ProjectileModel {
     pub fin_thickness_m: f32,
 }
 
-/// The reference projectile `ref-1378x80` (../shared/spec/projectile.md).
+/// The reference projectile `ref-1378x80` (`docs/projectile.md`).
 pub const REF_1378X80: ProjectileModel = ProjectileModel {
     id: "ref-1378x80",
     length_m: 1.378,
@@ -113,7 +113,7 @@ mod tests {
     #[test]
     fn ogive_matches_spec() {
         let m = REF_1378X80;
-        // projectile.md: rho = (R^2 + Ln^2) / (2R) = 0.740 m.
+        // docs/projectile.md: rho = (R^2 + Ln^2) / (2R) = 0.740 m.
         assert!((m.ogive_rho_m() - 0.740).abs() < 1e-4);
         assert!(m.radius_at(0.0).abs() < 1e-4, "sharp tip");
         assert!(

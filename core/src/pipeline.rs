@@ -181,7 +181,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         Ok(self.table_match.measure(
             chip,
             self.detect.background(),
-            target.class,
+            target.polarity,
             &hypothesis,
             &self.camera,
             &self.model,

@@ -1,4 +1,4 @@
-//! Pose conventions of ../shared/spec/geometry.md: translation of the body origin in the camera
+//! Pose conventions of `docs/geometry.md`: translation of the body origin in the camera
 //! frame C, and attitude (pitch, yaw, roll) in degrees relative to C.
 
 use nalgebra::{Matrix3, Vector3};
@@ -75,7 +75,7 @@ mod tests {
     use super::*;
     use crate::camera::Camera;
 
-    /// The test vector of ../shared/spec/geometry.md, its digits copied as the spec prints them.
+    /// The test vector of `docs/geometry.md` ("Test vectors"), its digits copied as printed there.
     #[test]
     #[allow(clippy::excessive_precision)]
     fn spec_test_vector() {

@@ -1,4 +1,4 @@
-//! The imade-results/1 row format (../shared/spec/clip-format.md), written through
+//! The imade-results/1 row format (`docs/formats.md`), written through
 //! `core::fmt::Write` so that the host and the firmware produce the same bytes.
 
 use crate::frame::{FrameResult, Status};

@@ -169,7 +169,7 @@ fn stages(c: &mut Criterion<ThreadCpuTime>) {
                 black_box(stage.measure(
                     &chip,
                     &p.background,
-                    p.target.class,
+                    p.target.polarity,
                     &p.hypothesis,
                     camera,
                     model,

@@ -99,8 +99,8 @@ enum RangeSpec {
     Raw(f32),
 }
 
-fn polarity(p: u8) -> BodyPolarity {
-    [BodyPolarity::Dark, BodyPolarity::Bright, BodyPolarity::Auto][usize::from(p % 3)]
+fn polarity(p: u8) -> Option<BodyPolarity> {
+    [Some(BodyPolarity::Dark), Some(BodyPolarity::Bright), None][usize::from(p % 3)]
 }
 
 fn range_use(ignore: bool) -> RangeUse {

@@ -17,7 +17,7 @@ use imade_core::mask::ChipMask;
 use imade_core::segment::Segmenter;
 use imade_core::segment::background::Background;
 use imade_core::table_match::{MatchConfig, MatchInput, pose};
-use imade_core::{Camera, Config, REF_1378X80};
+use imade_core::{BodyPolarity, Camera, Config, REF_1378X80};
 use imade_core_fuzz::synth::{self, ChipSpec, Raw, Shape};
 use imade_core_fuzz::table::{Header, build, read_all, with_checksum};
 use libfuzzer_sys::fuzz_target;
@@ -56,7 +56,7 @@ struct Prepared {
     chip: synth::Chip,
     background: Background,
     silhouette: Silhouette,
-    class: i8,
+    polarity: BodyPolarity,
     closed: ClosedForm,
 }
 
@@ -105,7 +105,7 @@ fn prepared() -> &'static Prepared {
             chip,
             background,
             silhouette,
-            class: target.class,
+            polarity: target.polarity,
             closed,
         }
     })
@@ -119,7 +119,7 @@ fn refine(table: &Table, range_m: Option<u16>) {
         chip: &view,
         background: &p.background,
         silhouette: &p.silhouette,
-        class: p.class,
+        polarity: p.polarity,
         origin: ORIGIN,
     };
     let range = range_m.map(f32::from);

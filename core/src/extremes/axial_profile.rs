@@ -8,6 +8,7 @@
 use super::{Axis, row_span};
 use crate::capacity::PROFILE_BINS;
 use crate::chip::ChipView;
+use crate::config::BodyPolarity;
 use crate::segment::background::Background;
 
 /// The width profile: `width[i]` at `t = start + (i + 0.5) * bin` px along the axis.
@@ -24,13 +25,13 @@ const OPPOSITE_CUTOFF_SIGMA: f32 = 4.0;
 
 impl WidthProfile {
     /// Builds the profile over `-reach..reach` px along `axis`, from pixels within `band` px of
-    /// it, for a body of contrast `contrast` and sign `class`.
+    /// it, for a body of contrast `contrast` and polarity `polarity`.
     #[allow(clippy::too_many_arguments)]
     pub fn build(
         chip: &ChipView,
         background: &Background,
         axis: &Axis,
-        class: i8,
+        polarity: BodyPolarity,
         contrast: f32,
         reach: f32,
         band: f32,
@@ -39,7 +40,7 @@ impl WidthProfile {
         let bins = ((2.0 * reach / bin) as usize).clamp(1, PROFILE_BINS);
         let start = -0.5 * bins as f32 * bin;
         let mut width = [0.0f32; PROFILE_BINS];
-        let sign = f32::from(class);
+        let sign = polarity.sign();
         let cutoff = -OPPOSITE_CUTOFF_SIGMA * background.sigma();
         let extent = reach + band + 1.0;
         let (cx, cy) = axis.centre;

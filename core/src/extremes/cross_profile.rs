@@ -12,6 +12,7 @@
 
 use super::row_span;
 use crate::chip::ChipView;
+use crate::config::BodyPolarity;
 use crate::math::{self, normal};
 use crate::segment::background::Background;
 use crate::segment::select::Shape;
@@ -83,13 +84,13 @@ impl Binned {
 }
 
 /// Bins the pixels of `stretch` by their distance across `shape`'s axis, within `half_width` px
-/// of it, for a body of contrast sign `class`; `bin_width` px (at least `2 half_width /
+/// of it, for a body of contrast polarity `polarity`; `bin_width` px (at least `2 half_width /
 /// CROSS_BINS`).
 pub fn bin(
     chip: &ChipView,
     background: &Background,
     shape: &Shape,
-    class: i8,
+    polarity: BodyPolarity,
     stretch: Stretch,
     half_width: f32,
     bin_width: f32,
@@ -103,7 +104,7 @@ pub fn bin(
         bin_width,
         pixels: 0,
     };
-    let sign = f32::from(class);
+    let sign = polarity.sign();
     // The pixels around the stretch: its bounding box in chip coordinates.
     let reach = libm::fabsf(stretch.t0).max(libm::fabsf(stretch.t1)) + half_width + 1.0;
     let (cx, cy) = shape.centre;
@@ -137,17 +138,17 @@ pub fn bin(
 }
 
 /// Fits the cross-section of `stretch`, where the shape's axis is `shape` and the body's pixels
-/// have contrast sign `class`. `half_width` bounds the profile across the axis, px.
+/// have contrast polarity `polarity`. `half_width` bounds the profile across the axis, px.
 pub fn fit(
     chip: &ChipView,
     background: &Background,
     shape: &Shape,
-    class: i8,
+    polarity: BodyPolarity,
     stretch: Stretch,
     half_width: f32,
 ) -> Option<CrossSection> {
     fit_binned(&bin(
-        chip, background, shape, class, stretch, half_width, BIN_PX,
+        chip, background, shape, polarity, stretch, half_width, BIN_PX,
     ))
 }
 

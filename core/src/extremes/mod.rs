@@ -188,7 +188,7 @@ pub fn measure(
             chip,
             background,
             shape,
-            target.class,
+            target.polarity,
             Stretch { t0, t1 },
             half_width,
         )
@@ -214,7 +214,7 @@ pub fn measure(
         chip,
         background,
         &axis,
-        target.class,
+        target.polarity,
         section.contrast,
         reach,
         band,

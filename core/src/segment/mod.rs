@@ -31,8 +31,8 @@ pub struct DetectConfig {
     pub retries: u8,
     /// Smallest component kept for target selection, px.
     pub min_area_px: u32,
-    /// The body's contrast polarity.
-    pub polarity: BodyPolarity,
+    /// The body's contrast polarity; None: either (the more elongated candidate wins).
+    pub polarity: Option<BodyPolarity>,
     /// Fraction of the body's full contrast at which the final mask is cut: 0.5 keeps pixels at
     /// least half covered, as the ground-truth masks (`docs/formats.md`).
     pub mask_level: f32,
@@ -50,7 +50,7 @@ impl DetectConfig {
         threshold_sigma: 4.5,
         retries: 2,
         min_area_px: 6,
-        polarity: BodyPolarity::Dark,
+        polarity: Some(BodyPolarity::Dark),
         mask_level: 0.5,
         mask_min_sigma: 2.0,
         mask_margin_sigmas: 2.0,
@@ -103,8 +103,8 @@ impl From<LabelError> for SegmentError {
 /// The segmented target.
 #[derive(Debug, Clone, Copy)]
 pub struct Target {
-    /// Contrast class: +1 brighter, -1 darker than the sky.
-    pub class: i8,
+    /// The body's contrast polarity against the sky.
+    pub polarity: BodyPolarity,
     /// Combined statistics of its parts.
     pub moments: Moments,
     /// Shape from the moments.
@@ -278,9 +278,9 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             .moments
             .bbox
             .grown(margin, chip.width(), chip.height());
-        let class = target.class;
+        let sign = target.polarity.sign();
         self.labeler.label(chip, &self.background, region, |r| {
-            if r * f32::from(class) >= level { 1 } else { 0 }
+            if r * sign >= level { 1 } else { 0 }
         })?;
         let mut keep: heapless::Vec<u16, MAX_COMPONENTS> = heapless::Vec::new();
         for run in self.labeler.runs() {
@@ -314,7 +314,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         mask.clear();
         paint(&self.labeler, &keep, mask);
         Ok(Target {
-            class,
+            polarity: target.polarity,
             moments,
             shape: Shape::of(&moments),
             parts: keep.len() as u8,
@@ -338,7 +338,11 @@ fn paint<const MAX_RUNS: usize, const MAX_LABELS: usize, const W: usize>(
 
 fn target_of(selection: &Selection, components: usize) -> Target {
     Target {
-        class: selection.moments.class,
+        polarity: if selection.moments.class > 0 {
+            BodyPolarity::Bright
+        } else {
+            BodyPolarity::Dark
+        },
         moments: selection.moments,
         shape: Shape::of(&selection.moments),
         parts: selection.parts.len() as u8,

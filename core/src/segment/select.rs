@@ -80,13 +80,11 @@ fn score(c: &Candidate, sigma: f32, aim: (f32, f32), chip_diag: f32) -> f32 {
 }
 
 /// Whether candidate `c` should be preferred over `other` as the body, by polarity.
-fn more_body_like(c: &Candidate, other: &Candidate, polarity: BodyPolarity) -> bool {
+fn more_body_like(c: &Candidate, other: &Candidate, polarity: Option<BodyPolarity>) -> bool {
     match polarity {
-        BodyPolarity::Dark => c.moments.mean_value() < other.moments.mean_value(),
-        BodyPolarity::Bright => c.moments.mean_value() > other.moments.mean_value(),
-        BodyPolarity::Auto => {
-            Shape::of(&c.moments).elongation() > Shape::of(&other.moments).elongation()
-        }
+        Some(BodyPolarity::Dark) => c.moments.mean_value() < other.moments.mean_value(),
+        Some(BodyPolarity::Bright) => c.moments.mean_value() > other.moments.mean_value(),
+        None => Shape::of(&c.moments).elongation() > Shape::of(&other.moments).elongation(),
     }
 }
 
@@ -113,7 +111,7 @@ pub fn select(
     sigma: f32,
     aim: (f32, f32),
     chip_diag: f32,
-    polarity: BodyPolarity,
+    polarity: Option<BodyPolarity>,
 ) -> Option<Selection> {
     let mut best: Option<(f32, &Candidate)> = None;
     let mut second: Option<(f32, &Candidate)> = None;

@@ -20,6 +20,7 @@ pub use pose::{MatchError, MatchInput, MatchedPose};
 use crate::camera::Camera;
 use crate::chip::ChipView;
 use crate::closed_form::{ClosedForm, Hypothesis};
+use crate::config::BodyPolarity;
 use crate::lut::render;
 use crate::lut::table::Table;
 use crate::mask::BitMask;
@@ -257,14 +258,14 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
     }
 
     /// Matches the table to `chip` (with its sky model `background` and the body's contrast
-    /// sign `class`, +1 brighter than the sky) from `hypothesis`: the first match, its prior,
+    /// `polarity`) from `hypothesis`: the first match, its prior,
     /// and the shape-guided loop where configured.
     #[allow(clippy::too_many_arguments)]
     pub fn measure(
         &mut self,
         chip: &ChipView,
         background: &Background,
-        class: i8,
+        polarity: BodyPolarity,
         hypothesis: &Hypothesis,
         camera: &Camera,
         model: &ProjectileModel,
@@ -275,7 +276,7 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
             chip,
             background,
             silhouette: &hypothesis.silhouette,
-            class,
+            polarity,
             origin: hypothesis.origin,
         };
         let range = hypothesis.sensor_range_m;

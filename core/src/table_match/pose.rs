@@ -14,6 +14,7 @@ use super::section::{self, LambertSection};
 use crate::camera::Camera;
 use crate::chip::ChipView;
 use crate::closed_form::{self, ClosedForm};
+use crate::config::BodyPolarity;
 use crate::extremes::axial_profile::WidthProfile;
 use crate::extremes::cross_profile::{self, Stretch};
 use crate::extremes::{Axis, Silhouette};
@@ -65,8 +66,8 @@ pub struct MatchInput<'a> {
     pub background: &'a Background,
     /// The silhouette measured by [`crate::extremes`].
     pub silhouette: &'a Silhouette,
-    /// The body's contrast sign (+1 brighter than the sky, -1 darker).
-    pub class: i8,
+    /// The body's contrast polarity against the sky.
+    pub polarity: BodyPolarity,
     /// Full-frame pixel of the chip's top-left.
     pub origin: (i32, i32),
 }
@@ -94,7 +95,7 @@ pub fn match_pose(
         frame.chip,
         frame.background,
         &axis,
-        frame.class,
+        frame.polarity,
         section.mean_contrast,
         reach,
         band,
@@ -205,7 +206,7 @@ fn cylinder_section(
         frame.chip,
         frame.background,
         &shape,
-        frame.class,
+        frame.polarity,
         Stretch { t0, t1 },
         half_width,
         config.section_bin_px,
