@@ -53,7 +53,7 @@ impl ShapeGuidedConfig {
     };
 }
 
-/// Why a refinement could not be made (the caller keeps the prior as it was).
+/// Why a guided segmentation could not be made (the caller keeps the prior as it was).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ShapeGuidedError {
@@ -71,10 +71,10 @@ pub enum ShapeGuidedError {
     OutputTooLarge,
 }
 
-/// A refinement: the transform that moves the prior onto the segmentation, and what it did.
+/// A guided segmentation: the transform that moves the prior onto the segmentation, and what it did.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Refinement {
+pub struct GuidedSegmentation {
     /// The method that made it.
     pub method: GuidedMethod,
     /// Chip px to chip px: the segmentation is this map applied to the prior.
@@ -125,7 +125,7 @@ impl ShapeGuided {
         chip: &ChipView,
         prior: &BitMask<W>,
         out: &mut BitMask<W>,
-    ) -> Result<Refinement, ShapeGuidedError> {
+    ) -> Result<GuidedSegmentation, ShapeGuidedError> {
         if prior.width() != chip.width() || prior.height() != chip.height() {
             return Err(ShapeGuidedError::SizeMismatch);
         }
@@ -157,7 +157,7 @@ impl ShapeGuided {
             .iter()
             .map(|&c| (transform.apply(c) - c).norm())
             .fold(0.0f32, f32::max);
-        Ok(Refinement {
+        Ok(GuidedSegmentation {
             method,
             transform,
             shift_px,

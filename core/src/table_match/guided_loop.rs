@@ -15,7 +15,7 @@ use crate::closed_form::{self, ClosedForm};
 use crate::extremes::{Axis, Silhouette};
 use crate::model::ProjectileModel;
 use crate::pose::RAD;
-use crate::shape_guided::{Affine2, Refinement, ShapeGuidedError};
+use crate::shape_guided::{Affine2, GuidedSegmentation, ShapeGuidedError};
 use core::cmp::Ordering;
 use nalgebra::Vector2;
 
@@ -133,7 +133,7 @@ pub struct LoopOutcome {
     /// Why it stopped.
     pub stop: LoopStop,
     /// The last segmentation, where one succeeded.
-    pub last: Option<Refinement>,
+    pub last: Option<GuidedSegmentation>,
     /// RMS width residual of the first match, px.
     pub first_rms_px: f32,
     /// RMS width residual of the match kept, px.
