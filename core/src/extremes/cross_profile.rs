@@ -13,10 +13,11 @@
 use super::row_span;
 use crate::chip::ChipView;
 use crate::config::BodyPolarity;
-use crate::math::{self, normal};
+use crate::math::least_squares::{self, Normal};
+use crate::math::normal;
 use crate::segment::background::Background;
 use crate::segment::select::Shape;
-use nalgebra::{SMatrix, SVector};
+use nalgebra::SVector;
 
 /// Bins of the cross-section profile.
 pub const CROSS_BINS: usize = 256;
@@ -152,48 +153,47 @@ pub fn fit(
     ))
 }
 
+/// Levenberg-Marquardt iterations at most.
+const MAX_ITERATIONS: u32 = 30;
+/// Initial damping: the fraction of each diagonal element of `JᵀWJ` added to it.
+const INITIAL_DAMPING: f32 = 1e-2;
+/// Damping factor after a rejected step.
+const DAMPING_UP: f32 = 10.0;
+/// Damping factor after an accepted step.
+const DAMPING_DOWN: f32 = 0.3;
+/// Smallest damping.
+const MIN_DAMPING: f32 = 1e-7;
+/// Damping beyond which the fit gives up.
+const MAX_DAMPING: f32 = 1e6;
+/// Smallest diagonal element of `JᵀWJ` the damping scales by, (grey level per parameter unit)²
+/// times pixels.
+const DIAGONAL_FLOOR: f32 = 1e-9;
+/// Converged when a step lowers the cost by at most this fraction of it.
+const RELATIVE_TOLERANCE: f32 = 1e-7;
+/// The box fit's Levenberg-Marquardt settings.
+const SOLVER: least_squares::Config = least_squares::Config {
+    max_iterations: MAX_ITERATIONS,
+    initial_damping: INITIAL_DAMPING,
+    damping_up: DAMPING_UP,
+    damping_down: DAMPING_DOWN,
+    min_damping: MIN_DAMPING,
+    max_damping: MAX_DAMPING,
+    diagonal_floor: DIAGONAL_FLOOR,
+    relative_tolerance: RELATIVE_TOLERANCE,
+};
+
+/// Diameter and blur below this are clamped, px.
+const MIN_WIDTH_PX: f32 = 0.2;
+
 /// Fits the blurred box to a binned cross-section.
 pub fn fit_binned(binned: &Binned) -> Option<CrossSection> {
-    let half_width = binned.half_width;
     let pixels = binned.pixels;
     if pixels < 8 {
         return None;
     }
-    let point = |i: usize| binned.point(i);
-    let mut p = initial_guess(&point, half_width)?;
-    let mut lambda = 1e-2f32;
-    // The cost and normal equations at `p`, carried over from an accepted trial.
-    let mut at_p = evaluate(&point, &p);
-    for _ in 0..30 {
-        let (cost, jtj, jtr) = at_p;
-        let mut damped = jtj;
-        for k in 0..6 {
-            damped[(k, k)] += lambda * jtj[(k, k)].max(1e-9);
-        }
-        let Some(step) = damped.cholesky().map(|c| c.solve(&jtr)) else {
-            lambda *= 10.0;
-            continue;
-        };
-        let mut trial = p + step;
-        trial[4] = trial[4].max(0.2); // diameter
-        trial[5] = trial[5].clamp(0.2, half_width); // blur
-        let at_trial = evaluate(&point, &trial);
-        let trial_cost = at_trial.0;
-        if trial_cost.is_finite() && trial_cost <= cost {
-            let converged = (cost - trial_cost) <= 1e-7 * cost.max(1e-12);
-            p = trial;
-            at_p = at_trial;
-            lambda = (lambda * 0.3).max(1e-7);
-            if converged {
-                break;
-            }
-        } else {
-            lambda *= 10.0;
-            if lambda > 1e6 {
-                break;
-            }
-        }
-    }
+    let start = initial_guess(&|i| binned.point(i), binned.half_width)?;
+    // A start whose cost is not finite is kept as it is.
+    let p = least_squares::minimize(&BoxFit(binned), start, &SOLVER).map_or(start, |s| s.params);
     let section = CrossSection {
         diameter_px: p[4],
         contrast: p[1],
@@ -236,7 +236,8 @@ fn initial_guess(
         return None;
     }
     let centre = first / area;
-    let diameter = (area / peak).clamp(0.5, 2.0 * half_width);
+    // At most twice the half width, or 0.5 px where that is smaller (the clamp cannot panic).
+    let diameter = (area / peak).clamp(0.5, (2.0 * half_width).max(0.5));
     Some(Params::from([b, peak, 0.0, centre, diameter, 0.8]))
 }
 
@@ -261,21 +262,83 @@ fn model(s: f32, p: &Params) -> (f32, Params) {
     (value, gradient)
 }
 
-/// The weighted squared residual and the normal equations (`JᵀWJ`, `JᵀWr`) at `p`, from one
-/// evaluation of the model per point (its erf and exp dominate the fit's time).
-fn evaluate(
-    point: &impl Fn(usize) -> Option<(f32, f32, f32)>,
-    p: &Params,
-) -> (f32, SMatrix<f32, 6, 6>, Params) {
-    let mut cost = 0.0f32;
-    let mut jtj = SMatrix::<f32, 6, 6>::zeros();
-    let mut jtr = Params::zeros();
-    for (s, v, w) in (0..CROSS_BINS).filter_map(point) {
-        let (value, g) = model(s, p);
-        let r = v - value;
-        cost += w * r * r;
-        math::accumulate(&mut jtj, &mut jtr, &g, w, r);
+/// The blurred box fitted to a binned profile.
+struct BoxFit<'b>(&'b Binned);
+
+impl least_squares::Problem<6> for BoxFit<'_> {
+    /// The weighted squared residual and the normal equations (`JᵀWJ`, `JᵀWr`) at `p`, from one
+    /// evaluation of the model per point (its erf and exp dominate the fit's time).
+    fn evaluate(&self, p: &Params) -> Option<Normal<6>> {
+        let mut normal = Normal::zeros();
+        for (s, v, w) in self.0.points() {
+            let (value, g) = model(s, p);
+            normal.add(&g, w, v - value);
+        }
+        Some(normal)
     }
-    jtj.fill_lower_triangle_with_upper_triangle();
-    (cost, jtj, jtr)
+
+    /// Diameter at least [`MIN_WIDTH_PX`], blur between it and the profile's half width (at
+    /// least [`MIN_WIDTH_PX`], so the clamp cannot panic).
+    fn constrain(&self, trial: &mut Params) {
+        trial[4] = trial[4].max(MIN_WIDTH_PX);
+        trial[5] = trial[5].clamp(MIN_WIDTH_PX, self.0.half_width.max(MIN_WIDTH_PX));
+    }
+}
+
+#[cfg(test)]
+impl Binned {
+    /// A profile of `f(s)` at every bin centre, each of `weight` pixels.
+    pub(crate) fn sampled(
+        half_width: f32,
+        bin_width: f32,
+        weight: u16,
+        f: impl Fn(f32) -> f32,
+    ) -> Binned {
+        let mut binned = Binned {
+            sum: [0.0; CROSS_BINS],
+            count: [0; CROSS_BINS],
+            half_width,
+            bin_width,
+            pixels: 0,
+        };
+        let bins = ((2.0 * half_width / bin_width) as usize).min(CROSS_BINS);
+        for i in 0..bins {
+            let s = -half_width + (i as f32 + 0.5) * bin_width;
+            binned.sum[i] = f(s) * f32::from(weight);
+            binned.count[i] = weight;
+            binned.pixels += u32::from(weight);
+        }
+        binned
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The blurred box's own profile, sampled exactly, is fitted back.
+    #[test]
+    fn an_exact_blurred_box_is_recovered() {
+        let truth = Params::from([3.0, 100.0, 2.0, 0.4, 6.0, 0.9]);
+        let binned = Binned::sampled(12.0, BIN_PX, 4, |s| model(s, &truth).0);
+        let section = fit_binned(&binned).unwrap();
+        assert!((section.diameter_px - 6.0).abs() < 1e-3, "{section:?}");
+        assert!((section.contrast - 100.0).abs() < 1e-2, "{section:?}");
+        assert!((section.shading - 2.0).abs() < 1e-3, "{section:?}");
+        assert!((section.sigma_px - 0.9).abs() < 1e-3, "{section:?}");
+        assert!((section.offset_px - 0.4).abs() < 1e-3, "{section:?}");
+        assert_eq!(section.pixels, 4 * 96);
+    }
+
+    /// A profile whose half width is below the smallest blur, or not a number, is fitted
+    /// without a panic (the clamps of the start's diameter and of the blur).
+    #[test]
+    fn a_degenerate_half_width_does_not_panic() {
+        let truth = Params::from([0.0, 50.0, 0.0, 0.0, 3.0, 0.8]);
+        for half_width in [0.1, f32::NAN] {
+            let mut binned = Binned::sampled(6.0, BIN_PX, 1, |s| model(s, &truth).0);
+            binned.half_width = half_width;
+            let _ = fit_binned(&binned);
+        }
+    }
 }

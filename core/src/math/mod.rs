@@ -1,6 +1,7 @@
 //! Numerical helpers shared by the fits, in pure f32 (the same bits on the host and the
 //! Cortex-M4F).
 
+pub mod least_squares;
 pub mod normal;
 
 use nalgebra::{SMatrix, SVector};

@@ -13,14 +13,45 @@
 
 use crate::extremes::cross_profile::Binned;
 use crate::extremes::cross_profile::CrossSection;
-use crate::math::{self, normal};
-use nalgebra::{SMatrix, SVector};
+use crate::math::least_squares::{self, Normal};
+use crate::math::normal;
+use nalgebra::SVector;
 
 /// Slices of the section.
 const INTERVALS: usize = 12;
 
-/// Levenberg-Marquardt iterations at most.
-const MAX_ITERATIONS: usize = 25;
+/// Levenberg-Marquardt iterations at most, per fit (there are two, see [`fit`]).
+const MAX_ITERATIONS: u32 = 25;
+/// Initial damping: the fraction of each diagonal element of `JᵀWJ` added to it.
+const INITIAL_DAMPING: f32 = 1e-2;
+/// Damping factor after a rejected step.
+const DAMPING_UP: f32 = 10.0;
+/// Damping factor after an accepted step.
+const DAMPING_DOWN: f32 = 0.3;
+/// Smallest damping.
+const MIN_DAMPING: f32 = 1e-7;
+/// Damping beyond which the fit gives up.
+const MAX_DAMPING: f32 = 1e6;
+/// Smallest diagonal element of `JᵀWJ` the damping scales by, (grey level per parameter unit)²
+/// times pixels: it keeps the fixed `c2` (its column zeroed) damped, with a zero step.
+const DIAGONAL_FLOOR: f32 = 1e-9;
+/// Converged when a step lowers the cost by at most this fraction of it.
+const RELATIVE_TOLERANCE: f32 = 1e-5;
+/// The Lambertian fit's Levenberg-Marquardt settings.
+const SOLVER: least_squares::Config = least_squares::Config {
+    max_iterations: MAX_ITERATIONS,
+    initial_damping: INITIAL_DAMPING,
+    damping_up: DAMPING_UP,
+    damping_down: DAMPING_DOWN,
+    min_damping: MIN_DAMPING,
+    max_damping: MAX_DAMPING,
+    diagonal_floor: DIAGONAL_FLOOR,
+    relative_tolerance: RELATIVE_TOLERANCE,
+};
+/// Smallest radius, px.
+const MIN_RADIUS_PX: f32 = 0.1;
+/// Smallest blur, px.
+const MIN_SIGMA_PX: f32 = 0.2;
 
 /// Cost reduction, in residual variances per pixel, for the shading terms to be kept.
 const SIGNIFICANCE: f32 = 20.0;
@@ -101,67 +132,47 @@ impl Slices {
         }
         (value, g)
     }
+}
 
+/// The shaded section fitted to a binned profile, `c2` fixed unless `free_c2`.
+struct SectionFit<'a> {
+    slices: &'a Slices,
+    binned: &'a Binned,
+    free_c2: bool,
+}
+
+impl least_squares::Problem<7> for SectionFit<'_> {
     /// The weighted squared residual and the normal equations (`JᵀWJ`, `JᵀWr`) at `p`, from
     /// one evaluation of the model per point; `c2`'s column is zero unless `free_c2`.
-    fn evaluate(&self, binned: &Binned, p: &Params, free_c2: bool) -> Evaluation {
-        let mut cost = 0.0f32;
-        let mut jtj = SMatrix::<f32, 7, 7>::zeros();
-        let mut jtr = Params::zeros();
-        for (s, v, w) in binned.points() {
-            let (value, mut g) = self.model(s, p);
-            if !free_c2 {
+    fn evaluate(&self, p: &Params) -> Option<Normal<7>> {
+        let mut normal = Normal::zeros();
+        for (s, v, w) in self.binned.points() {
+            let (value, mut g) = self.slices.model(s, p);
+            if !self.free_c2 {
                 g[3] = 0.0;
             }
-            let r = v - value;
-            cost += w * r * r;
-            math::accumulate(&mut jtj, &mut jtr, &g, w, r);
+            normal.add(&g, w, v - value);
         }
-        jtj.fill_lower_triangle_with_upper_triangle();
-        (cost, jtj, jtr)
+        Some(normal)
+    }
+
+    /// Radius at least [`MIN_RADIUS_PX`], blur between [`MIN_SIGMA_PX`] and the profile's half
+    /// width (at least [`MIN_SIGMA_PX`], so the clamp cannot panic).
+    fn constrain(&self, trial: &mut Params) {
+        trial[5] = trial[5].max(MIN_RADIUS_PX);
+        trial[6] = trial[6].clamp(MIN_SIGMA_PX, self.binned.half_width.max(MIN_SIGMA_PX));
     }
 }
 
-/// The cost and normal equations at a point of the parameter space.
-type Evaluation = (f32, SMatrix<f32, 7, 7>, Params);
-
 /// Levenberg-Marquardt from `p`; `c2` stays fixed unless `free_c2`. Returns the parameters and
-/// their cost.
-fn minimize(slices: &Slices, binned: &Binned, mut p: Params, free_c2: bool) -> (Params, f32) {
-    let mut lambda = 1e-2f32;
-    // The cost and normal equations at `p`, carried over from an accepted trial.
-    let mut at_p = slices.evaluate(binned, &p, free_c2);
-    for _ in 0..MAX_ITERATIONS {
-        let (cost, jtj, jtr) = at_p;
-        let mut damped = jtj;
-        for k in 0..7 {
-            damped[(k, k)] += lambda * jtj[(k, k)].max(1e-9);
-        }
-        let Some(step) = damped.cholesky().map(|c| c.solve(&jtr)) else {
-            lambda *= 10.0;
-            continue;
-        };
-        let mut trial = p + step;
-        trial[5] = trial[5].max(0.1);
-        trial[6] = trial[6].clamp(0.2, binned.half_width);
-        let at_trial = slices.evaluate(binned, &trial, free_c2);
-        let trial_cost = at_trial.0;
-        if trial_cost.is_finite() && trial_cost <= cost {
-            let converged = (cost - trial_cost) <= 1e-5 * cost.max(1e-12);
-            p = trial;
-            at_p = at_trial;
-            lambda = (lambda * 0.3).max(1e-7);
-            if converged {
-                break;
-            }
-        } else {
-            lambda *= 10.0;
-            if lambda > 1e6 {
-                break;
-            }
-        }
-    }
-    (p, at_p.0)
+/// their cost: `p` and NaN where the cost at `p` is not finite.
+fn minimize(slices: &Slices, binned: &Binned, p: Params, free_c2: bool) -> (Params, f32) {
+    let problem = SectionFit {
+        slices,
+        binned,
+        free_c2,
+    };
+    least_squares::minimize(&problem, p, &SOLVER).map_or((p, f32::NAN), |s| (s.params, s.cost))
 }
 
 /// Fits the shaded section to `binned`, starting from the box fit `start` of the same pixels.
@@ -199,4 +210,53 @@ pub fn fit(binned: &Binned, start: &CrossSection) -> Option<LambertSection> {
         && section.offset_px.is_finite()
         && section.diameter_px < 2.0 * binned.half_width)
         .then_some(section)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::extremes::cross_profile;
+
+    /// A shaded section sampled exactly from the model: the box fit starts the Lambertian fit,
+    /// which recovers the diameter the box misreads (6.0 px of 7, the dim edges of a body
+    /// lit face-on).
+    #[test]
+    fn an_exact_shaded_section_is_recovered() {
+        let slices = Slices::new();
+        // Background 2, a strongly shaded body of diameter 7 px, blur 0.8 px, 0.3 px off axis.
+        let truth = Params::from([2.0, 20.0, 30.0, 80.0, 0.3, 3.5, 0.8]);
+        let binned = Binned::sampled(12.0, 0.25, 4, |s| slices.model(s, &truth).0);
+        let start = cross_profile::fit_binned(&binned).unwrap();
+        assert!((start.diameter_px - 7.0).abs() > 0.5, "{start:?}");
+        let section = fit(&binned, &start).unwrap();
+        assert!(
+            (section.diameter_px - 7.0).abs() < 0.02,
+            "{section:?} from {start:?}"
+        );
+        assert!((section.offset_px - 0.3).abs() < 0.02, "{section:?}");
+        assert!((section.sigma_px - 0.8).abs() < 0.02, "{section:?}");
+        let mean = 20.0 + core::f32::consts::FRAC_PI_4 * 80.0;
+        assert!((section.mean_contrast - mean).abs() < 0.5, "{section:?}");
+    }
+
+    /// A profile whose half width is below the smallest blur, or not a number, is fitted
+    /// without a panic (the blur's clamp).
+    #[test]
+    fn a_degenerate_half_width_does_not_panic() {
+        let slices = Slices::new();
+        let truth = Params::from([0.0, 50.0, 0.0, 0.0, 0.0, 1.5, 0.8]);
+        let start = CrossSection {
+            diameter_px: 3.0,
+            contrast: 50.0,
+            shading: 0.0,
+            sigma_px: 0.8,
+            offset_px: 0.0,
+            pixels: 48,
+        };
+        for half_width in [0.1, f32::NAN] {
+            let mut binned = Binned::sampled(6.0, 0.25, 1, |s| slices.model(s, &truth).0);
+            binned.half_width = half_width;
+            let _ = fit(&binned, &start);
+        }
+    }
 }
