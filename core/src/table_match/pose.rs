@@ -127,7 +127,7 @@ pub fn match_pose(
         origin_t: 0.5 * (sil.nose_t + sil.tail_t),
         cost: 0.0,
     };
-    let matched = search::search(table, &measured, 90.0 - closed.aspect_deg, start, true)
+    let matched = search::search(table, &measured, 90.0 - closed.aspect_deg, start)
         .ok_or(MatchError::NoMatch)?;
     let range = match range_m {
         Some(r) => r,

@@ -4,9 +4,10 @@
 //! divided by the section's mean contrast: the silhouette's width in px, blurred only along the
 //! axis (blur moves no contrast across it). An entry predicts it as `k (v_hi - v_lo)((t - t0) /
 //! k)`, `k` the scale in px per body diameter and `t0` the body origin along the axis, blurred
-//! along by the PSF. For each candidate entry `k` and `t0` are fitted by Gauss-Newton (`t0` only
-//! when the range fixes `k`), with the derivatives of the entry's piecewise-linear width, and the entries are searched coarse to fine: tilts around the
-//! closed form's, then rolls, then the neighbouring tilts for a parabolic refinement.
+//! along by the PSF. `k` is fixed (by the range, or by the shaded section's diameter); for each
+//! candidate entry `t0` is fitted by Gauss-Newton with the derivatives of the entry's
+//! piecewise-linear width, and the entries are searched coarse to fine: tilts around the closed
+//! form's, then rolls, then the neighbouring tilts for a parabolic refinement.
 
 use crate::extremes::axial_profile::WidthProfile;
 use crate::lut::table::{Entry, MAX_STATIONS, Table};
@@ -185,8 +186,9 @@ impl Measured<'_> {
         (cost, g, h)
     }
 
-    /// Fits scale (unless `fixed_scale`) and origin of `entry`, from `start`.
-    pub fn fit(&self, entry: &Entry, cos_tilt: f32, start: Fit, fixed_scale: bool) -> Fit {
+    /// Fits the origin of `entry` at `start`'s scale (the range's, or the shaded section's
+    /// diameter: `pose::match_pose` never fits the scale), from `start`.
+    pub fn fit(&self, entry: &Entry, cos_tilt: f32, start: Fit) -> Fit {
         let widths = Widths::of(entry);
         let mut at_best = self.evaluate(&widths, cos_tilt, start.px_per_d, start.origin_t);
         let mut best = Fit {
@@ -195,25 +197,15 @@ impl Measured<'_> {
         };
         for _ in 0..ITERATIONS {
             let (_, g, h) = at_best;
-            let step = if fixed_scale {
-                (h[1][1] > 0.0).then(|| [0.0, g[1] / h[1][1]])
-            } else {
-                let det = h[0][0] * h[1][1] - h[0][1] * h[1][0];
-                (libm::fabsf(det) > 1e-12).then(|| {
-                    [
-                        (h[1][1] * g[0] - h[0][1] * g[1]) / det,
-                        (h[0][0] * g[1] - h[1][0] * g[0]) / det,
-                    ]
-                })
-            };
-            let Some([sk, st]) = step else { break };
+            if !(h[1][1] > 0.0) {
+                break;
+            }
             // Keep steps modest: the profile is piecewise linear.
-            let sk = sk.clamp(-0.1 * best.px_per_d, 0.1 * best.px_per_d);
-            let st = st.clamp(-3.0, 3.0);
+            let st = (g[1] / h[1][1]).clamp(-3.0, 3.0);
             let trial = Fit {
-                px_per_d: best.px_per_d + sk,
                 origin_t: best.origin_t + st,
                 cost: 0.0,
+                ..best
             };
             let at_trial = self.evaluate(&widths, cos_tilt, trial.px_per_d, trial.origin_t);
             let cost = at_trial.0;
@@ -233,14 +225,8 @@ fn folded_rolls<'t>(table: &'t Table<'t>) -> impl Iterator<Item = usize> + 't {
 }
 
 /// Searches `table` for the entry that best explains `measured`, starting from the closed form's
-/// tilt `tilt_deg` and `start` (scale and origin); `fixed_scale` when the range is known.
-pub fn search(
-    table: &Table,
-    measured: &Measured,
-    tilt_deg: f32,
-    start: Fit,
-    fixed_scale: bool,
-) -> Option<Match> {
+/// tilt `tilt_deg` and `start` (scale and origin; the scale stays).
+pub fn search(table: &Table, measured: &Measured, tilt_deg: f32, start: Fit) -> Option<Match> {
     let step = table.tilt_step_deg();
     let centre = table.tilt_index(tilt_deg);
     let lo = centre.saturating_sub(TILT_REACH);
@@ -248,7 +234,7 @@ pub fn search(
     let mid_roll = folded_rolls(table).last().unwrap_or(0) / 2;
     let fit_at = |i: usize, j: usize, from: Fit| {
         let cos_tilt = libm::cosf(table.tilt_deg(i) * crate::pose::RAD);
-        measured.fit(&table.entry(i, j), cos_tilt, from, fixed_scale)
+        measured.fit(&table.entry(i, j), cos_tilt, from)
     };
     // 1. Tilts around the closed form's, at a middle roll: every other one, then the two
     //    beside the best of those.
