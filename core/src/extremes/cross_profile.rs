@@ -153,33 +153,12 @@ pub fn fit(
     ))
 }
 
-/// Levenberg-Marquardt iterations at most.
-const MAX_ITERATIONS: u32 = 30;
-/// Initial damping: the fraction of each diagonal element of `JᵀWJ` added to it.
-const INITIAL_DAMPING: f32 = 1e-2;
-/// Damping factor after a rejected step.
-const DAMPING_UP: f32 = 10.0;
-/// Damping factor after an accepted step.
-const DAMPING_DOWN: f32 = 0.3;
-/// Smallest damping.
-const MIN_DAMPING: f32 = 1e-7;
-/// Damping beyond which the fit gives up.
-const MAX_DAMPING: f32 = 1e6;
-/// Smallest diagonal element of `JᵀWJ` the damping scales by, (grey level per parameter unit)²
-/// times pixels.
-const DIAGONAL_FLOOR: f32 = 1e-9;
-/// Converged when a step lowers the cost by at most this fraction of it.
-const RELATIVE_TOLERANCE: f32 = 1e-7;
-/// The box fit's Levenberg-Marquardt settings.
+/// The box fit's Levenberg-Marquardt settings: the core's damping schedule, at most 30
+/// iterations, converged when a step lowers the cost by at most 1e-7 of it.
 const SOLVER: least_squares::Config = least_squares::Config {
-    max_iterations: MAX_ITERATIONS,
-    initial_damping: INITIAL_DAMPING,
-    damping_up: DAMPING_UP,
-    damping_down: DAMPING_DOWN,
-    min_damping: MIN_DAMPING,
-    max_damping: MAX_DAMPING,
-    diagonal_floor: DIAGONAL_FLOOR,
-    relative_tolerance: RELATIVE_TOLERANCE,
+    max_iterations: 30,
+    relative_tolerance: 1e-7,
+    ..least_squares::Config::DEFAULT
 };
 
 /// Diameter and blur below this are clamped, px.

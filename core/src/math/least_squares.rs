@@ -92,6 +92,22 @@ pub struct Config {
     pub relative_tolerance: f32,
 }
 
+impl Config {
+    /// The damping schedule every fit of the core uses (each sets its own iteration limit and
+    /// tolerance): start at 1e-2, x10 after a rejected trial, x0.3 after an accepted one, within
+    /// 1e-7..1e6, diagonal floor 1e-9.
+    pub const DEFAULT: Config = Config {
+        max_iterations: 30,
+        initial_damping: 1e-2,
+        damping_up: 10.0,
+        damping_down: 0.3,
+        min_damping: 1e-7,
+        max_damping: 1e6,
+        diagonal_floor: 1e-9,
+        relative_tolerance: 1e-7,
+    };
+}
+
 /// Why [`minimize`] stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

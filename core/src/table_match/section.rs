@@ -20,34 +20,14 @@ use nalgebra::SVector;
 /// Slices of the section.
 const INTERVALS: usize = 12;
 
-/// Levenberg-Marquardt iterations at most, per fit (there are two, see [`fit`]).
-const MAX_ITERATIONS: u32 = 25;
-/// Initial damping: the fraction of each diagonal element of `JᵀWJ` added to it.
-const INITIAL_DAMPING: f32 = 1e-2;
-/// Damping factor after a rejected step.
-const DAMPING_UP: f32 = 10.0;
-/// Damping factor after an accepted step.
-const DAMPING_DOWN: f32 = 0.3;
-/// Smallest damping.
-const MIN_DAMPING: f32 = 1e-7;
-/// Damping beyond which the fit gives up.
-const MAX_DAMPING: f32 = 1e6;
-/// Smallest diagonal element of `JᵀWJ` the damping scales by, (grey level per parameter unit)²
-/// times pixels: it keeps the fixed `c2` (its column zeroed) damped, with a zero step.
-const DIAGONAL_FLOOR: f32 = 1e-9;
-/// Converged when a step lowers the cost by at most this fraction of it.
-const RELATIVE_TOLERANCE: f32 = 1e-5;
-/// The Lambertian fit's Levenberg-Marquardt settings.
+/// The Lambertian fit's Levenberg-Marquardt settings: the core's damping schedule, at most 25
+/// iterations, converged when a step lowers the cost by at most 1e-5 of it.
 const SOLVER: least_squares::Config = least_squares::Config {
-    max_iterations: MAX_ITERATIONS,
-    initial_damping: INITIAL_DAMPING,
-    damping_up: DAMPING_UP,
-    damping_down: DAMPING_DOWN,
-    min_damping: MIN_DAMPING,
-    max_damping: MAX_DAMPING,
-    diagonal_floor: DIAGONAL_FLOOR,
-    relative_tolerance: RELATIVE_TOLERANCE,
+    max_iterations: 25,
+    relative_tolerance: 1e-5,
+    ..least_squares::Config::DEFAULT
 };
+
 /// Smallest radius, px.
 const MIN_RADIUS_PX: f32 = 0.1;
 /// Smallest blur, px.
