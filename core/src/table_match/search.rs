@@ -197,7 +197,7 @@ impl Measured<'_> {
         };
         for _ in 0..ITERATIONS {
             let (_, g, h) = at_best;
-            if !(h[1][1] > 0.0) {
+            if h[1][1].is_nan() || h[1][1] <= 0.0 {
                 break;
             }
             // Keep steps modest: the profile is piecewise linear.
