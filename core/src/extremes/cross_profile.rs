@@ -273,7 +273,7 @@ impl least_squares::Problem<6> for BoxFit<'_> {
             let (value, g) = model(s, p);
             normal.add(&g, w, v - value);
         }
-        Some(normal)
+        Some(normal.complete())
     }
 
     /// Diameter at least [`MIN_WIDTH_PX`], blur between it and the profile's half width (at

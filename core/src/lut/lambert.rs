@@ -153,7 +153,7 @@ impl least_squares::Problem<7> for SectionFit<'_> {
             }
             normal.add(&g, w, v - value);
         }
-        Some(normal)
+        Some(normal.complete())
     }
 
     /// Radius at least [`MIN_RADIUS_PX`], blur between [`MIN_SIGMA_PX`] and the profile's half
