@@ -5,11 +5,15 @@
 //! axis (blur moves no contrast across it). An entry predicts it as `k (v_hi - v_lo)((t - t0) /
 //! k)`, `k` the scale in px per body diameter and `t0` the body origin along the axis, blurred
 //! along by the PSF. For each candidate entry `k` and `t0` are fitted by Gauss-Newton (`t0` only
-//! when the range fixes `k`), with the derivatives of the entry's piecewise-linear width, and the entries are searched coarse to fine: tilts around the
-//! closed form's, then rolls, then the neighbouring tilts for a parabolic refinement.
+//! when the range fixes `k`; [`crate::math::least_squares`] with its damping held at a floor),
+//! with the derivatives of the entry's piecewise-linear width, and the entries are searched
+//! coarse to fine: tilts around the closed form's, then rolls, then the neighbouring tilts for a
+//! parabolic refinement.
 
 use super::table::{Entry, MAX_STATIONS, Table};
 use crate::extremes::axial_profile::WidthProfile;
+use crate::math::least_squares::{self, Normal};
+use nalgebra::SVector;
 
 /// Gauss-Hermite nodes (in sigma) and weights of the along-axis blur: the three-point rule
 /// (exact for cubics; the five-point rule cost 40 % more and moved no result beyond the tests'
@@ -19,8 +23,39 @@ const BLUR_NODES: [(f32, f32); 3] = [
     (1.732_050_8, 0.166_666_67),
     (-1.732_050_8, 0.166_666_67),
 ];
-/// Gauss-Newton iterations per entry.
-const ITERATIONS: usize = 4;
+/// Gauss-Newton iterations per entry, at most.
+const MAX_ITERATIONS: u32 = 4;
+/// Damping, fixed (initial, smallest and largest): the fraction of each diagonal element of the
+/// Gauss-Newton matrix added to it. Small, so the steps are Gauss-Newton's; not zero, so the
+/// fixed scale's zeroed row stays solvable (with [`DIAGONAL_FLOOR`]).
+const DAMPING: f32 = 1e-7;
+/// Damping factor after a rejected step: past [`DAMPING`], so the first step that does not lower
+/// the cost ends the fit (no retry with a shorter step; the profile is piecewise linear).
+const DAMPING_UP: f32 = 10.0;
+/// Damping factor after an accepted step: none.
+const DAMPING_DOWN: f32 = 1.0;
+/// Smallest diagonal element of the Gauss-Newton matrix the damping scales by, px² per
+/// parameter unit² (the scale's unit is px per `D`, the origin's px).
+const DIAGONAL_FLOOR: f32 = 1e-9;
+/// Converged when a step lowers the cost by at most this fraction of it: only a step that does
+/// not lower it at all.
+const RELATIVE_TOLERANCE: f32 = 0.0;
+/// The placement fit's settings: Gauss-Newton until a step does not lower the cost.
+const SOLVER: least_squares::Config = least_squares::Config {
+    max_iterations: MAX_ITERATIONS,
+    initial_damping: DAMPING,
+    damping_up: DAMPING_UP,
+    damping_down: DAMPING_DOWN,
+    min_damping: DAMPING,
+    max_damping: DAMPING,
+    diagonal_floor: DIAGONAL_FLOOR,
+    relative_tolerance: RELATIVE_TOLERANCE,
+};
+/// Largest scale step, as a fraction of the scale: steps stay modest, the profile is piecewise
+/// linear.
+const MAX_SCALE_STEP: f32 = 0.1;
+/// Largest origin step, px.
+const MAX_ORIGIN_STEP_PX: f32 = 3.0;
 /// Tilts searched on either side of the closed form's, grid steps.
 const TILT_REACH: usize = 6;
 /// Residuals beyond this many px of width count linearly (Huber), so a plume or a cloud edge on
@@ -127,8 +162,57 @@ impl Widths {
     }
 }
 
-/// The cost of a placement, and its gradient and Gauss-Newton matrix in (px_per_d, origin_t).
-type Evaluation = (f32, [f32; 2], [[f32; 2]; 2]);
+/// An entry placed on the measured profile: scale `px_per_d` and origin `origin_t`, fitted
+/// to the width residuals (Huber-weighted, the weights recomputed at every evaluation) and the
+/// two extreme-point residuals.
+struct Placement<'a, 'p> {
+    measured: &'a Measured<'p>,
+    widths: &'a Widths,
+    cos_tilt: f32,
+    /// The scale is held: its gradient is zeroed.
+    fixed_scale: bool,
+}
+
+impl least_squares::Problem<2> for Placement<'_, '_> {
+    /// Robust cost and normal equations at (px_per_d, origin_t), from one interpolation of the
+    /// entry per blur node and bin (analytic derivatives); `None` for a scale that is not
+    /// positive.
+    fn evaluate(&self, p: &SVector<f32, 2>) -> Option<Normal<2>> {
+        let (k, t0) = (p[0], p[1]);
+        if k.is_nan() || k <= 0.0 {
+            return None;
+        }
+        let gradient =
+            |j: [f32; 2]| SVector::from([if self.fixed_scale { 0.0 } else { j[0] }, j[1]]);
+        let m = self.measured;
+        let mut normal = Normal::zeros();
+        for (r, j) in m.end_residuals(self.cos_tilt, k, t0) {
+            normal.add(&gradient(j), m.end_weight, r);
+        }
+        let inv_k = 1.0 / k;
+        for i in m.bins.0..m.bins.1 {
+            let (predicted, j) = m.predicted(self.widths, k, inv_k, t0, m.profile.t_of(i));
+            let r = m.profile.at(i) - predicted;
+            let a = libm::fabsf(r);
+            // Huber: the weight times r² is r² within HUBER_PX, HUBER_PX |r| beyond.
+            let weight = if a <= HUBER_PX { 1.0 } else { HUBER_PX / a };
+            normal.add(&gradient(j), weight, r);
+        }
+        Some(normal.complete())
+    }
+
+    /// The step from `from` limited to [`MAX_SCALE_STEP`] of the scale and
+    /// [`MAX_ORIGIN_STEP_PX`].
+    fn constrain(&self, from: &SVector<f32, 2>, trial: &mut SVector<f32, 2>) {
+        let limit = MAX_SCALE_STEP * from[0];
+        // Positive at every point that could be evaluated; the test keeps a NaN or negative
+        // limit from panicking the clamp.
+        if limit >= 0.0 {
+            trial[0] = from[0] + (trial[0] - from[0]).clamp(-limit, limit);
+        }
+        trial[1] = from[1] + (trial[1] - from[1]).clamp(-MAX_ORIGIN_STEP_PX, MAX_ORIGIN_STEP_PX);
+    }
+}
 
 impl Measured<'_> {
     /// The predicted width at `t` px along the axis, px, and its derivatives in `px_per_d` and
@@ -156,74 +240,28 @@ impl Measured<'_> {
         ]
     }
 
-    /// Robust cost, and its gradient and Gauss-Newton matrix in (px_per_d, origin_t), from one
-    /// interpolation of the entry per blur node and bin (analytic derivatives).
-    fn evaluate(&self, widths: &Widths, cos_tilt: f32, k: f32, t0: f32) -> Evaluation {
-        let (mut cost, mut g, mut h) = (0.0f32, [0.0f32; 2], [[0.0f32; 2]; 2]);
-        let mut add = |weight: f32, r: f32, j: [f32; 2]| {
-            for a in 0..2 {
-                g[a] += weight * j[a] * r;
-                for b in 0..2 {
-                    h[a][b] += weight * j[a] * j[b];
-                }
-            }
-        };
-        for (r, j) in self.end_residuals(cos_tilt, k, t0) {
-            cost += self.end_weight * r * r;
-            add(self.end_weight, r, j);
-        }
-        let inv_k = 1.0 / k;
-        for i in self.bins.0..self.bins.1 {
-            let (p, j) = self.predicted(widths, k, inv_k, t0, self.profile.t_of(i));
-            let r = self.profile.at(i) - p;
-            let a = libm::fabsf(r);
-            // Huber: the weight times r² is r² within HUBER_PX, HUBER_PX |r| beyond.
-            let weight = if a <= HUBER_PX { 1.0 } else { HUBER_PX / a };
-            cost += weight * r * r;
-            add(weight, r, j);
-        }
-        (cost, g, h)
-    }
-
-    /// Fits scale (unless `fixed_scale`) and origin of `entry`, from `start`.
+    /// Fits scale (unless `fixed_scale`) and origin of `entry`, from `start`; its cost is NaN
+    /// where it cannot be evaluated at `start` (a scale that is not positive, say).
     pub fn fit(&self, entry: &Entry, cos_tilt: f32, start: Fit, fixed_scale: bool) -> Fit {
         let widths = Widths::of(entry);
-        let mut at_best = self.evaluate(&widths, cos_tilt, start.px_per_d, start.origin_t);
-        let mut best = Fit {
-            cost: at_best.0,
-            ..start
+        let problem = Placement {
+            measured: self,
+            widths: &widths,
+            cos_tilt,
+            fixed_scale,
         };
-        for _ in 0..ITERATIONS {
-            let (_, g, h) = at_best;
-            let step = if fixed_scale {
-                (h[1][1] > 0.0).then(|| [0.0, g[1] / h[1][1]])
-            } else {
-                let det = h[0][0] * h[1][1] - h[0][1] * h[1][0];
-                (libm::fabsf(det) > 1e-12).then(|| {
-                    [
-                        (h[1][1] * g[0] - h[0][1] * g[1]) / det,
-                        (h[0][0] * g[1] - h[1][0] * g[0]) / det,
-                    ]
-                })
-            };
-            let Some([sk, st]) = step else { break };
-            // Keep steps modest: the profile is piecewise linear.
-            let sk = sk.clamp(-0.1 * best.px_per_d, 0.1 * best.px_per_d);
-            let st = st.clamp(-3.0, 3.0);
-            let trial = Fit {
-                px_per_d: best.px_per_d + sk,
-                origin_t: best.origin_t + st,
-                cost: 0.0,
-            };
-            let at_trial = self.evaluate(&widths, cos_tilt, trial.px_per_d, trial.origin_t);
-            let cost = at_trial.0;
-            if !(cost.is_finite() && cost < best.cost && trial.px_per_d > 0.0) {
-                break;
-            }
-            best = Fit { cost, ..trial };
-            at_best = at_trial;
+        let p = SVector::from([start.px_per_d, start.origin_t]);
+        match least_squares::minimize(&problem, p, &SOLVER) {
+            Some(s) => Fit {
+                px_per_d: s.params[0],
+                origin_t: s.params[1],
+                cost: s.cost,
+            },
+            None => Fit {
+                cost: f32::NAN,
+                ..start
+            },
         }
-        best
     }
 }
 
@@ -319,4 +357,104 @@ pub fn search(
 /// The value at `offset` in [-1, 1] of the parabola through (-1, `below`), (0, `at`), (1, `above`).
 fn interpolate(below: f32, at: f32, above: f32, offset: f32) -> f32 {
     at + 0.5 * offset * (above - below) + 0.5 * offset * offset * (above + below - 2.0 * at)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chip::ChipView;
+    use crate::extremes::Axis;
+    use crate::model::REF_1378X80;
+    use crate::segment::background::Background;
+
+    /// The bundled table, built by `imade lut build --model ref-1378x80`.
+    static BUNDLED: &[u8] = include_bytes!("../../../fixtures/lut/ref-1378x80.lut");
+
+    const W: usize = 160;
+    const H: usize = 48;
+    /// The body's grey level over a zero background.
+    const LEVEL: f32 = 200.0;
+
+    /// A chip of `entry`'s silhouette along x through the chip's centre at `k` px per `D`, its
+    /// origin `t0` px right of the centre: each pixel is the body's cover of its column's span
+    /// across (anti-aliased), at its centre along.
+    fn render(entry: &Entry, k: f32, t0: f32) -> [u8; W * H] {
+        let mut chip = [0u8; W * H];
+        let (cx, cy) = ((W / 2) as f32, (H / 2) as f32);
+        let (lo, hi) = entry.u_range();
+        for (i, pixel) in chip.iter_mut().enumerate() {
+            let (x, y) = ((i % W) as f32, (i / W) as f32);
+            let u = (x - cx - t0) / k;
+            if !(lo..=hi).contains(&u) {
+                continue;
+            }
+            let (v_lo, v_hi) = entry.edges_at(u);
+            let (a, b) = (cy + k * v_lo, cy + k * v_hi);
+            let cover = ((y + 0.5).min(b) - (y - 0.5).max(a)).clamp(0.0, 1.0);
+            *pixel = libm::roundf(LEVEL * cover) as u8;
+        }
+        chip
+    }
+
+    /// Fits the broadside entry to its own rendering: from an origin 2 px off with the scale
+    /// held, and from a scale 5 % off with it free; a start that cannot be evaluated keeps the
+    /// start, with a NaN cost.
+    #[test]
+    fn an_entry_is_placed_on_its_own_profile() {
+        let table = Table::parse_for(BUNDLED, &REF_1378X80).unwrap();
+        let entry = table.entry(0, 0);
+        let (k, t0) = (6.0, 1.3);
+        let data = render(&entry, k, t0);
+        let chip = ChipView::gray8(&data, W, H, W, 0, 0).unwrap();
+        let axis = Axis {
+            centre: ((W / 2) as f32, (H / 2) as f32),
+            dir: (1.0, 0.0),
+        };
+        let profile = WidthProfile::build(&chip, &Background::new(), &axis, 1, LEVEL, 70.0, 20.0);
+        let half_length_d = 0.5 * REF_1378X80.length_m / REF_1378X80.diameter_m;
+        let (nose, tail) = (t0 + k * half_length_d, t0 - k * half_length_d);
+        let measured = Measured {
+            profile: &profile,
+            bins: (profile.bin_of(tail - 5.0), profile.bin_of(nose + 5.0) + 1),
+            // The profile's linear split between bins: variance 1/6.
+            sigma_px: libm::sqrtf(1.0 / 6.0),
+            ends_t: (nose, tail),
+            end_weight: 10.0,
+            half_length_d,
+        };
+        let start = |px_per_d: f32, origin_t: f32| Fit {
+            px_per_d,
+            origin_t,
+            cost: 0.0,
+        };
+        let held = measured.fit(&entry, 1.0, start(k, t0 + 2.0), true);
+        assert_eq!(held.px_per_d, k, "{held:?}");
+        assert!((held.origin_t - t0).abs() < 0.02, "{held:?}");
+        let free = measured.fit(&entry, 1.0, start(1.05 * k, t0 - 1.0), false);
+        assert!((free.px_per_d / k - 1.0).abs() < 0.002, "{free:?}");
+        assert!((free.origin_t - t0).abs() < 0.02, "{free:?}");
+        // Both lower the cost they started from.
+        for (fit, from) in [
+            (held, start(k, t0 + 2.0)),
+            (free, start(1.05 * k, t0 - 1.0)),
+        ] {
+            let problem = Placement {
+                measured: &measured,
+                widths: &Widths::of(&entry),
+                cos_tilt: 1.0,
+                fixed_scale: false,
+            };
+            let p = SVector::from([from.px_per_d, from.origin_t]);
+            let at_start = least_squares::Problem::evaluate(&problem, &p).unwrap();
+            assert!(
+                fit.cost < 0.5 * at_start.cost,
+                "{fit:?} from {}",
+                at_start.cost
+            );
+        }
+        for bad in [0.0, -k, f32::NAN] {
+            let fit = measured.fit(&entry, 1.0, start(bad, t0), false);
+            assert!(fit.cost.is_nan() && fit.origin_t == t0, "{fit:?}");
+        }
+    }
 }

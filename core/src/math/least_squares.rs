@@ -71,9 +71,10 @@ pub trait Problem<const N: usize> {
     fn evaluate(&self, p: &SVector<f32, N>) -> Option<Normal<N>>;
 
     /// Moves a trial point into the region where the model is meaningful (clamping a width to
-    /// be positive, say), before it is evaluated. The default leaves it as it is.
-    fn constrain(&self, trial: &mut SVector<f32, N>) {
-        let _ = trial;
+    /// be positive, say, or limiting the step from `from`), before it is evaluated. The
+    /// default leaves it as it is.
+    fn constrain(&self, from: &SVector<f32, N>, trial: &mut SVector<f32, N>) {
+        let _ = (from, trial);
     }
 }
 
@@ -155,7 +156,7 @@ pub fn minimize<const N: usize>(
             continue;
         };
         let mut trial = p + step;
-        problem.constrain(&mut trial);
+        problem.constrain(&p, &mut trial);
         match evaluate(&trial) {
             Some(at_trial) if at_trial.cost <= at_p.cost => {
                 let converged = (at_p.cost - at_trial.cost)
@@ -358,7 +359,7 @@ mod tests {
             Some(normal.complete())
         }
 
-        fn constrain(&self, trial: &mut SVector<f32, 2>) {
+        fn constrain(&self, _: &SVector<f32, 2>, trial: &mut SVector<f32, 2>) {
             trial[1] = trial[1].min(self.max_slope);
         }
     }
@@ -380,6 +381,57 @@ mod tests {
         let s = minimize(&free, SVector::from([0.25, 0.0]), &CONFIG).unwrap();
         assert_eq!(s.params[0], 0.25, "{s:?}");
         assert!((s.params[1] - 2.0).abs() < 1e-5, "{s:?}");
+    }
+
+    /// The line fit with the slope's step limited to 0.25 per iteration.
+    struct StepLimited(Curve);
+
+    impl Problem<2> for StepLimited {
+        fn evaluate(&self, p: &SVector<f32, 2>) -> Option<Normal<2>> {
+            self.0.evaluate(p)
+        }
+
+        fn constrain(&self, from: &SVector<f32, 2>, trial: &mut SVector<f32, 2>) {
+            trial[1] = from[1] + (trial[1] - from[1]).clamp(-0.25, 0.25);
+        }
+    }
+
+    #[test]
+    fn a_step_limit_from_the_current_point_holds() {
+        let problem = StepLimited(curve([0.0, 2.0], line));
+        let three = Config {
+            max_iterations: 3,
+            ..CONFIG
+        };
+        let s = minimize(&problem, SVector::from([0.0, 0.0]), &three).unwrap();
+        assert_eq!(s.params[1], 0.75, "{s:?}");
+        let s = minimize(&problem, SVector::from([0.0, 0.0]), &CONFIG).unwrap();
+        assert!((s.params[1] - 2.0).abs() < 1e-5, "{s:?}");
+    }
+
+    /// Damping held at a floor with no room to grow: Gauss-Newton that stops at the first step
+    /// that does not lower the cost, keeping the point before it.
+    #[test]
+    fn gauss_newton_stops_at_the_first_rejected_step() {
+        let gauss_newton = Config {
+            initial_damping: 1e-7,
+            damping_down: 1.0,
+            min_damping: 1e-7,
+            max_damping: 1e-7,
+            ..CONFIG
+        };
+        // The full step lands on slope 1, beyond the evaluable slopes (<= 0.5).
+        let start = SVector::from([0.0, 0.0]);
+        let s = minimize(&fragile(0.5, false), start, &gauss_newton).unwrap();
+        assert_eq!(
+            (s.params, s.iterations, s.stop),
+            (start, 1, Stop::DampingLimit)
+        );
+        // Where the steps succeed it is Gauss-Newton: one step solves a line.
+        let s = minimize(&curve([1.5, -0.75], line), start, &gauss_newton).unwrap();
+        assert!((s.params[0] - 1.5).abs() < 1e-5, "{s:?}");
+        assert!((s.params[1] + 0.75).abs() < 1e-5, "{s:?}");
+        assert!(s.iterations <= 3, "{s:?}");
     }
 
     #[test]
