@@ -253,12 +253,12 @@ impl least_squares::Problem<6> for BoxFit<'_> {
             let (value, g) = model(s, p);
             normal.add(&g, w, v - value);
         }
-        Some(normal)
+        Some(normal.complete())
     }
 
     /// Diameter at least [`MIN_WIDTH_PX`], blur between it and the profile's half width (at
     /// least [`MIN_WIDTH_PX`], so the clamp cannot panic).
-    fn constrain(&self, trial: &mut Params) {
+    fn constrain(&self, _: &Params, trial: &mut Params) {
         trial[4] = trial[4].max(MIN_WIDTH_PX);
         trial[5] = trial[5].clamp(MIN_WIDTH_PX, self.0.half_width.max(MIN_WIDTH_PX));
     }

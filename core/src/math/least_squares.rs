@@ -2,8 +2,8 @@
 //!
 //! A fit implements [`Problem`]: at a point of its parameter space it accumulates, over its own
 //! data, the weighted squared residual and the normal equations `JᵀWJ` and `JᵀWr` (a
-//! [`Normal`], usually with [`Normal::add`] per point), where `r` is the measured minus the
-//! modelled value and `J` the model's gradient. [`minimize`] owns the rest: the damping,
+//! [`Normal`], usually with [`Normal::add`] per point and [`Normal::complete`] at the end),
+//! where `r` is the measured minus the modelled value and `J` the model's gradient. [`minimize`] owns the rest: the damping,
 //! the step, its acceptance, the convergence test and the iteration limit, as set by a
 //! [`Config`].
 //!
@@ -27,7 +27,7 @@ const COST_FLOOR: f32 = 1e-12;
 pub struct Normal<const N: usize> {
     /// Weighted sum of squared residuals.
     pub cost: f32,
-    /// `JᵀWJ`: only its upper triangle (with the diagonal) is read.
+    /// `JᵀWJ`, symmetric: [`minimize`] reads its lower triangle (with the diagonal).
     pub jtj: SMatrix<f32, N, N>,
     /// `JᵀWr`, `r` the measured minus the modelled value.
     pub jtr: SVector<f32, N>,
@@ -44,12 +44,23 @@ impl<const N: usize> Normal<N> {
     }
 
     /// Adds one point: residual `r` (measured minus modelled), model gradient `g` with respect
-    /// to the parameters, weight `w`. The cost grows by `w r²`, `JᵀWJ` (upper triangle) by
-    /// `w g gᵀ` and `JᵀWr` by `w r g`.
+    /// to the parameters, weight `w`. The cost grows by `w r²`, `JᵀWJ` by `w g gᵀ` (its upper
+    /// triangle only: [`complete`](Normal::complete) it once every point is added) and `JᵀWr`
+    /// by `w r g`.
     #[inline]
     pub fn add(&mut self, g: &SVector<f32, N>, w: f32, r: f32) {
         self.cost += w * r * r;
         super::accumulate(&mut self.jtj, &mut self.jtr, g, w, r);
+    }
+
+    /// `JᵀWJ`'s lower triangle copied from its upper, where [`add`](Normal::add) accumulates.
+    /// (Completed here, at the end of the fit's evaluation, rather than in the solver: the
+    /// compiler then makes a faster per-point loop for the Cortex-M4F, 13 % fewer instructions
+    /// in the box fit's evaluation.)
+    #[inline]
+    pub fn complete(mut self) -> Normal<N> {
+        self.jtj.fill_lower_triangle_with_upper_triangle();
+        self
     }
 }
 
@@ -60,9 +71,10 @@ pub trait Problem<const N: usize> {
     fn evaluate(&self, p: &SVector<f32, N>) -> Option<Normal<N>>;
 
     /// Moves a trial point into the region where the model is meaningful (clamping a width to
-    /// be positive, say), before it is evaluated. The default leaves it as it is.
-    fn constrain(&self, trial: &mut SVector<f32, N>) {
-        let _ = trial;
+    /// be positive, say, or limiting the step from `from`), before it is evaluated. The
+    /// default leaves it as it is.
+    fn constrain(&self, from: &SVector<f32, N>, trial: &mut SVector<f32, N>) {
+        let _ = (from, trial);
     }
 }
 
@@ -150,7 +162,6 @@ pub fn minimize<const N: usize>(
     while iterations < config.max_iterations {
         iterations += 1;
         let mut damped = at_p.jtj;
-        damped.fill_lower_triangle_with_upper_triangle();
         for k in 0..N {
             if let Some(d) = damped.get_mut((k, k)) {
                 *d += damping * d.max(config.diagonal_floor);
@@ -161,7 +172,7 @@ pub fn minimize<const N: usize>(
             continue;
         };
         let mut trial = p + step;
-        problem.constrain(&mut trial);
+        problem.constrain(&p, &mut trial);
         match evaluate(&trial) {
             Some(at_trial) if at_trial.cost <= at_p.cost => {
                 let converged = (at_p.cost - at_trial.cost)
@@ -223,7 +234,7 @@ mod tests {
                 let (value, g) = (self.model)(x, p);
                 normal.add(&g, 1.0, y - value);
             }
-            Some(normal)
+            Some(normal.complete())
         }
     }
 
@@ -282,7 +293,7 @@ mod tests {
                 -(10.0 * (y - x * x)),
             );
             normal.add(&SVector::from([-1.0, 0.0]), 1.0, -(1.0 - x));
-            Some(normal)
+            Some(normal.complete())
         }
     }
 
@@ -361,10 +372,10 @@ mod tests {
                 g[0] = 0.0;
                 normal.add(&g, 1.0, y - value);
             }
-            Some(normal)
+            Some(normal.complete())
         }
 
-        fn constrain(&self, trial: &mut SVector<f32, 2>) {
+        fn constrain(&self, _: &SVector<f32, 2>, trial: &mut SVector<f32, 2>) {
             trial[1] = trial[1].min(self.max_slope);
         }
     }
@@ -386,6 +397,57 @@ mod tests {
         let s = minimize(&free, SVector::from([0.25, 0.0]), &CONFIG).unwrap();
         assert_eq!(s.params[0], 0.25, "{s:?}");
         assert!((s.params[1] - 2.0).abs() < 1e-5, "{s:?}");
+    }
+
+    /// The line fit with the slope's step limited to 0.25 per iteration.
+    struct StepLimited(Curve);
+
+    impl Problem<2> for StepLimited {
+        fn evaluate(&self, p: &SVector<f32, 2>) -> Option<Normal<2>> {
+            self.0.evaluate(p)
+        }
+
+        fn constrain(&self, from: &SVector<f32, 2>, trial: &mut SVector<f32, 2>) {
+            trial[1] = from[1] + (trial[1] - from[1]).clamp(-0.25, 0.25);
+        }
+    }
+
+    #[test]
+    fn a_step_limit_from_the_current_point_holds() {
+        let problem = StepLimited(curve([0.0, 2.0], line));
+        let three = Config {
+            max_iterations: 3,
+            ..CONFIG
+        };
+        let s = minimize(&problem, SVector::from([0.0, 0.0]), &three).unwrap();
+        assert_eq!(s.params[1], 0.75, "{s:?}");
+        let s = minimize(&problem, SVector::from([0.0, 0.0]), &CONFIG).unwrap();
+        assert!((s.params[1] - 2.0).abs() < 1e-5, "{s:?}");
+    }
+
+    /// Damping held at a floor with no room to grow: Gauss-Newton that stops at the first step
+    /// that does not lower the cost, keeping the point before it.
+    #[test]
+    fn gauss_newton_stops_at_the_first_rejected_step() {
+        let gauss_newton = Config {
+            initial_damping: 1e-7,
+            damping_down: 1.0,
+            min_damping: 1e-7,
+            max_damping: 1e-7,
+            ..CONFIG
+        };
+        // The full step lands on slope 1, beyond the evaluable slopes (<= 0.5).
+        let start = SVector::from([0.0, 0.0]);
+        let s = minimize(&fragile(0.5, false), start, &gauss_newton).unwrap();
+        assert_eq!(
+            (s.params, s.iterations, s.stop),
+            (start, 1, Stop::DampingLimit)
+        );
+        // Where the steps succeed it is Gauss-Newton: one step solves a line.
+        let s = minimize(&curve([1.5, -0.75], line), start, &gauss_newton).unwrap();
+        assert!((s.params[0] - 1.5).abs() < 1e-5, "{s:?}");
+        assert!((s.params[1] + 0.75).abs() < 1e-5, "{s:?}");
+        assert!(s.iterations <= 3, "{s:?}");
     }
 
     #[test]

@@ -5,12 +5,15 @@
 //! axis (blur moves no contrast across it). An entry predicts it as `k (v_hi - v_lo)((t - t0) /
 //! k)`, `k` the scale in px per body diameter and `t0` the body origin along the axis, blurred
 //! along by the PSF. `k` is fixed (by the range, or by the shaded section's diameter); for each
-//! candidate entry `t0` is fitted by Gauss-Newton with the derivatives of the entry's
-//! piecewise-linear width, and the entries are searched coarse to fine: tilts around the closed
-//! form's, then rolls, then the neighbouring tilts for a parabolic refinement.
+//! candidate entry `t0` is fitted by Gauss-Newton ([`crate::math::least_squares`] with its
+//! damping held at a floor) with the derivatives of the entry's piecewise-linear width, and the
+//! entries are searched coarse to fine: tilts around the closed form's, then rolls, then the
+//! neighbouring tilts for a parabolic refinement.
 
 use crate::extremes::axial_profile::WidthProfile;
 use crate::lut::table::{Entry, MAX_STATIONS, Table};
+use crate::math::least_squares::{self, Normal};
+use nalgebra::SVector;
 
 /// Gauss-Hermite nodes (in sigma) and weights of the along-axis blur: the three-point rule
 /// (exact for cubics; the five-point rule cost 40 % more and moved no result beyond the tests'
@@ -20,8 +23,34 @@ const BLUR_NODES: [(f32, f32); 3] = [
     (1.732_050_8, 0.166_666_67),
     (-1.732_050_8, 0.166_666_67),
 ];
-/// Gauss-Newton iterations per entry.
-const ITERATIONS: usize = 4;
+/// Gauss-Newton iterations per entry, at most.
+const MAX_ITERATIONS: u32 = 4;
+/// Damping, fixed (initial, smallest and largest): the fraction of the Gauss-Newton matrix's
+/// diagonal added to it. Small, so the steps are Gauss-Newton's.
+const DAMPING: f32 = 1e-7;
+/// Damping factor after a rejected step: past [`DAMPING`], so the first step that does not lower
+/// the cost ends the fit (no retry with a shorter step; the profile is piecewise linear).
+const DAMPING_UP: f32 = 10.0;
+/// Damping factor after an accepted step: none.
+const DAMPING_DOWN: f32 = 1.0;
+/// Smallest diagonal element of the Gauss-Newton matrix the damping scales by, px² per px².
+const DIAGONAL_FLOOR: f32 = 1e-9;
+/// Converged when a step lowers the cost by at most this fraction of it: only a step that does
+/// not lower it at all.
+const RELATIVE_TOLERANCE: f32 = 0.0;
+/// The placement fit's settings: Gauss-Newton until a step does not lower the cost.
+const SOLVER: least_squares::Config = least_squares::Config {
+    max_iterations: MAX_ITERATIONS,
+    initial_damping: DAMPING,
+    damping_up: DAMPING_UP,
+    damping_down: DAMPING_DOWN,
+    min_damping: DAMPING,
+    max_damping: DAMPING,
+    diagonal_floor: DIAGONAL_FLOOR,
+    relative_tolerance: RELATIVE_TOLERANCE,
+};
+/// Largest origin step, px: steps stay modest, the profile is piecewise linear.
+const MAX_ORIGIN_STEP_PX: f32 = 3.0;
 /// Tilts searched on either side of the closed form's, grid steps.
 const TILT_REACH: usize = 6;
 /// Residuals beyond this many px of width count linearly (Huber), so a plume or a cloud edge on
@@ -128,94 +157,96 @@ impl Widths {
     }
 }
 
-/// The cost of a placement, and its gradient and Gauss-Newton matrix in (px_per_d, origin_t).
-type Evaluation = (f32, [f32; 2], [[f32; 2]; 2]);
+/// An entry placed on the measured profile: scale `px_per_d` and origin `origin_t`, fitted
+/// to the width residuals (Huber-weighted, the weights recomputed at every evaluation) and the
+/// two extreme-point residuals.
+struct Placement<'a, 'p> {
+    measured: &'a Measured<'p>,
+    widths: &'a Widths,
+    cos_tilt: f32,
+    /// The scale, px per `D`: positive.
+    px_per_d: f32,
+}
+
+impl least_squares::Problem<1> for Placement<'_, '_> {
+    /// Robust cost and normal equations at origin `p[0]` px, from one interpolation of the entry
+    /// per blur node and bin (analytic derivatives).
+    fn evaluate(&self, p: &SVector<f32, 1>) -> Option<Normal<1>> {
+        let (k, t0) = (self.px_per_d, p[0]);
+        let m = self.measured;
+        let mut normal = Normal::zeros();
+        for (r, dt) in m.end_residuals(self.cos_tilt, k, t0) {
+            normal.add(&SVector::from([dt]), m.end_weight, r);
+        }
+        let inv_k = 1.0 / k;
+        for i in m.bins.0..m.bins.1 {
+            let (predicted, dt) = m.predicted(self.widths, k, inv_k, t0, m.profile.t_of(i));
+            let r = m.profile.at(i) - predicted;
+            let a = libm::fabsf(r);
+            // Huber: the weight times r² is r² within HUBER_PX, HUBER_PX |r| beyond.
+            let weight = if a <= HUBER_PX { 1.0 } else { HUBER_PX / a };
+            normal.add(&SVector::from([dt]), weight, r);
+        }
+        Some(normal.complete())
+    }
+
+    /// The step from `from` limited to [`MAX_ORIGIN_STEP_PX`].
+    fn constrain(&self, from: &SVector<f32, 1>, trial: &mut SVector<f32, 1>) {
+        trial[0] = from[0] + (trial[0] - from[0]).clamp(-MAX_ORIGIN_STEP_PX, MAX_ORIGIN_STEP_PX);
+    }
+}
 
 impl Measured<'_> {
-    /// The predicted width at `t` px along the axis, px, and its derivatives in `px_per_d` and
-    /// `origin_t`, for an entry's `widths` at scale `k` px per `D` (`inv_k` its inverse) and
-    /// origin `t0` px.
-    fn predicted(&self, widths: &Widths, k: f32, inv_k: f32, t0: f32, t: f32) -> (f32, [f32; 2]) {
-        let (mut value, mut dk, mut dt) = (0.0f32, 0.0f32, 0.0f32);
+    /// The predicted width at `t` px along the axis, px, and its derivative in `origin_t`, for
+    /// an entry's `widths` at scale `k` px per `D` (`inv_k` its inverse) and origin `t0` px.
+    fn predicted(&self, widths: &Widths, k: f32, inv_k: f32, t0: f32, t: f32) -> (f32, f32) {
+        let (mut value, mut dt) = (0.0f32, 0.0f32);
         for (node, weight) in BLUR_NODES {
             let u = (t + node * self.sigma_px - t0) * inv_k;
             let (w, slope) = widths.at(u);
             value += weight * w;
-            dk += weight * (w - u * slope);
             dt -= weight * slope;
         }
-        (value * k, [dk, dt])
+        (value * k, dt)
     }
 
     /// The extreme-point residuals (measured minus the entry's nose and tail) and their
-    /// derivatives in (px_per_d, origin_t), for an entry of tilt cosine `cos_tilt`.
-    fn end_residuals(&self, cos_tilt: f32, k: f32, t0: f32) -> [(f32, [f32; 2]); 2] {
+    /// derivatives in `origin_t`, for an entry of tilt cosine `cos_tilt`.
+    fn end_residuals(&self, cos_tilt: f32, k: f32, t0: f32) -> [(f32, f32); 2] {
         let h = self.half_length_d * cos_tilt;
         [
-            (self.ends_t.0 - (t0 + k * h), [h, 1.0]),
-            (self.ends_t.1 - (t0 - k * h), [-h, 1.0]),
+            (self.ends_t.0 - (t0 + k * h), 1.0),
+            (self.ends_t.1 - (t0 - k * h), 1.0),
         ]
     }
 
-    /// Robust cost, and its gradient and Gauss-Newton matrix in (px_per_d, origin_t), from one
-    /// interpolation of the entry per blur node and bin (analytic derivatives).
-    fn evaluate(&self, widths: &Widths, cos_tilt: f32, k: f32, t0: f32) -> Evaluation {
-        let (mut cost, mut g, mut h) = (0.0f32, [0.0f32; 2], [[0.0f32; 2]; 2]);
-        let mut add = |weight: f32, r: f32, j: [f32; 2]| {
-            for a in 0..2 {
-                g[a] += weight * j[a] * r;
-                for b in 0..2 {
-                    h[a][b] += weight * j[a] * j[b];
-                }
-            }
-        };
-        for (r, j) in self.end_residuals(cos_tilt, k, t0) {
-            cost += self.end_weight * r * r;
-            add(self.end_weight, r, j);
-        }
-        let inv_k = 1.0 / k;
-        for i in self.bins.0..self.bins.1 {
-            let (p, j) = self.predicted(widths, k, inv_k, t0, self.profile.t_of(i));
-            let r = self.profile.at(i) - p;
-            let a = libm::fabsf(r);
-            // Huber: the weight times r² is r² within HUBER_PX, HUBER_PX |r| beyond.
-            let weight = if a <= HUBER_PX { 1.0 } else { HUBER_PX / a };
-            cost += weight * r * r;
-            add(weight, r, j);
-        }
-        (cost, g, h)
-    }
-
     /// Fits the origin of `entry` at `start`'s scale (the range's, or the shaded section's
-    /// diameter: `pose::match_pose` never fits the scale), from `start`.
+    /// diameter: `pose::match_pose` never fits the scale), from `start`; its cost is NaN where
+    /// the scale is not positive or the fit cannot be evaluated at `start`.
     pub fn fit(&self, entry: &Entry, cos_tilt: f32, start: Fit) -> Fit {
-        let widths = Widths::of(entry);
-        let mut at_best = self.evaluate(&widths, cos_tilt, start.px_per_d, start.origin_t);
-        let mut best = Fit {
-            cost: at_best.0,
+        let failed = Fit {
+            cost: f32::NAN,
             ..start
         };
-        for _ in 0..ITERATIONS {
-            let (_, g, h) = at_best;
-            if h[1][1].is_nan() || h[1][1] <= 0.0 {
-                break;
-            }
-            // Keep steps modest: the profile is piecewise linear.
-            let st = (g[1] / h[1][1]).clamp(-3.0, 3.0);
-            let trial = Fit {
-                origin_t: best.origin_t + st,
-                cost: 0.0,
-                ..best
-            };
-            let at_trial = self.evaluate(&widths, cos_tilt, trial.px_per_d, trial.origin_t);
-            let cost = at_trial.0;
-            if !(cost.is_finite() && cost < best.cost && trial.px_per_d > 0.0) {
-                break;
-            }
-            best = Fit { cost, ..trial };
-            at_best = at_trial;
+        if start.px_per_d.is_nan() || start.px_per_d <= 0.0 {
+            return failed;
         }
-        best
+        let widths = Widths::of(entry);
+        let problem = Placement {
+            measured: self,
+            widths: &widths,
+            cos_tilt,
+            px_per_d: start.px_per_d,
+        };
+        let p = SVector::from([start.origin_t]);
+        match least_squares::minimize(&problem, p, &SOLVER) {
+            Some(s) => Fit {
+                px_per_d: start.px_per_d,
+                origin_t: s.params[0],
+                cost: s.cost,
+            },
+            None => failed,
+        }
     }
 }
 
@@ -305,4 +336,105 @@ pub fn search(table: &Table, measured: &Measured, tilt_deg: f32, start: Fit) -> 
 /// The value at `offset` in [-1, 1] of the parabola through (-1, `below`), (0, `at`), (1, `above`).
 fn interpolate(below: f32, at: f32, above: f32, offset: f32) -> f32 {
     at + 0.5 * offset * (above - below) + 0.5 * offset * offset * (above + below - 2.0 * at)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chip::ChipView;
+    use crate::config::BodyPolarity;
+    use crate::extremes::Axis;
+    use crate::model::REF_1378X80;
+    use crate::segment::background::Background;
+
+    /// The bundled table, built by `imade lut build --model ref-1378x80`.
+    static BUNDLED: &[u8] = include_bytes!("../../../fixtures/lut/ref-1378x80.lut");
+
+    const W: usize = 160;
+    const H: usize = 48;
+    /// The body's grey level over a zero background.
+    const LEVEL: f32 = 200.0;
+
+    /// A chip of `entry`'s silhouette along x through the chip's centre at `k` px per `D`, its
+    /// origin `t0` px right of the centre: each pixel is the body's cover of its column's span
+    /// across (anti-aliased), at its centre along.
+    fn render(entry: &Entry, k: f32, t0: f32) -> [u8; W * H] {
+        let mut chip = [0u8; W * H];
+        let (cx, cy) = ((W / 2) as f32, (H / 2) as f32);
+        let (lo, hi) = entry.u_range();
+        for (i, pixel) in chip.iter_mut().enumerate() {
+            let (x, y) = ((i % W) as f32, (i / W) as f32);
+            let u = (x - cx - t0) / k;
+            if !(lo..=hi).contains(&u) {
+                continue;
+            }
+            let (v_lo, v_hi) = entry.edges_at(u);
+            let (a, b) = (cy + k * v_lo, cy + k * v_hi);
+            let cover = ((y + 0.5).min(b) - (y - 0.5).max(a)).clamp(0.0, 1.0);
+            *pixel = libm::roundf(LEVEL * cover) as u8;
+        }
+        chip
+    }
+
+    /// Fits the broadside entry to its own rendering from an origin 2 px off; a scale that is
+    /// not positive keeps the start, with a NaN cost.
+    #[test]
+    fn an_entry_is_placed_on_its_own_profile() {
+        let table = Table::parse_for(BUNDLED, &REF_1378X80).unwrap();
+        let entry = table.entry(0, 0);
+        let (k, t0) = (6.0, 1.3);
+        let data = render(&entry, k, t0);
+        let chip = ChipView::gray8(&data, W, H, W, 0, 0).unwrap();
+        let axis = Axis {
+            centre: ((W / 2) as f32, (H / 2) as f32),
+            dir: (1.0, 0.0),
+        };
+        let profile = WidthProfile::build(
+            &chip,
+            &Background::new(),
+            &axis,
+            BodyPolarity::Bright,
+            LEVEL,
+            70.0,
+            20.0,
+        );
+        let half_length_d = 0.5 * REF_1378X80.length_m / REF_1378X80.diameter_m;
+        let (nose, tail) = (t0 + k * half_length_d, t0 - k * half_length_d);
+        let measured = Measured {
+            profile: &profile,
+            bins: (profile.bin_of(tail - 5.0), profile.bin_of(nose + 5.0) + 1),
+            // The profile's linear split between bins: variance 1/6.
+            sigma_px: libm::sqrtf(1.0 / 6.0),
+            ends_t: (nose, tail),
+            end_weight: 10.0,
+            half_length_d,
+        };
+        let start = |px_per_d: f32, origin_t: f32| Fit {
+            px_per_d,
+            origin_t,
+            cost: 0.0,
+        };
+        let from = start(k, t0 + 2.0);
+        let held = measured.fit(&entry, 1.0, from);
+        assert_eq!(held.px_per_d, k, "{held:?}");
+        assert!((held.origin_t - t0).abs() < 0.02, "{held:?}");
+        // It lowers the cost it started from.
+        let problem = Placement {
+            measured: &measured,
+            widths: &Widths::of(&entry),
+            cos_tilt: 1.0,
+            px_per_d: k,
+        };
+        let p = SVector::from([from.origin_t]);
+        let at_start = least_squares::Problem::evaluate(&problem, &p).unwrap();
+        assert!(
+            held.cost < 0.5 * at_start.cost,
+            "{held:?} from {}",
+            at_start.cost
+        );
+        for bad in [0.0, -k, f32::NAN] {
+            let fit = measured.fit(&entry, 1.0, start(bad, t0));
+            assert!(fit.cost.is_nan() && fit.origin_t == t0, "{fit:?}");
+        }
+    }
 }

@@ -133,12 +133,12 @@ impl least_squares::Problem<7> for SectionFit<'_> {
             }
             normal.add(&g, w, v - value);
         }
-        Some(normal)
+        Some(normal.complete())
     }
 
     /// Radius at least [`MIN_RADIUS_PX`], blur between [`MIN_SIGMA_PX`] and the profile's half
     /// width (at least [`MIN_SIGMA_PX`], so the clamp cannot panic).
-    fn constrain(&self, trial: &mut Params) {
+    fn constrain(&self, _: &Params, trial: &mut Params) {
         trial[5] = trial[5].max(MIN_RADIUS_PX);
         trial[6] = trial[6].clamp(MIN_SIGMA_PX, self.binned.half_width.max(MIN_SIGMA_PX));
     }
