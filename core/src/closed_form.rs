@@ -18,6 +18,7 @@
 use crate::camera::{Camera, line_of_sight_frame};
 use crate::extremes::Silhouette;
 use crate::model::ProjectileModel;
+use crate::point::ImagePoint;
 use crate::pose::{DEG, attitude_of};
 use nalgebra::{Vector2, Vector3};
 
@@ -108,11 +109,9 @@ fn ends(
     origin: (i32, i32),
     nose_t: f32,
     tail_t: f32,
-) -> (Vector2<f32>, Vector2<f32>) {
-    let o = Vector2::new(origin.0 as f32, origin.1 as f32);
-    let (nx, ny) = sil.axis.point(nose_t);
-    let (tx, ty) = sil.axis.point(tail_t);
-    (o + Vector2::new(nx, ny), o + Vector2::new(tx, ty))
+) -> (ImagePoint, ImagePoint) {
+    let o = ImagePoint::of_pixel(origin);
+    (o + sil.axis.point(nose_t), o + sil.axis.point(tail_t))
 }
 
 /// Slant range to the body from its apparent diameter, m.
@@ -121,7 +120,7 @@ pub fn range_from_diameter(
     camera: &Camera,
     model: &ProjectileModel,
 ) -> Option<f32> {
-    let across = Vector2::new(-sil.axis.dir.1, sil.axis.dir.0);
+    let across = sil.axis.dir.perpendicular().into();
     let angular = camera.normalized_length(sil.diameter_px, across);
     let range = model.diameter_m / angular;
     (range.is_finite() && range > 0.0).then_some(range)
@@ -152,7 +151,7 @@ pub fn solve(
     model: &ProjectileModel,
     range_m: f32,
 ) -> ClosedForm {
-    let dir = Vector2::new(sil.axis.dir.0, sil.axis.dir.1);
+    let dir = sil.axis.dir.into();
     // Pixels per metre across the line of sight, along the image axis.
     let px_per_m = 1.0 / (range_m * camera.normalized_length(1.0, dir)).max(f32::MIN_POSITIVE);
     let corrected = |sin_a: f32, cos_a: f32| {
@@ -172,15 +171,15 @@ pub fn solve(
 /// The pose whose nose tip and tail base centre project to full-frame `nose` and `tail` px, for a
 /// body `length` m long at slant range `range_m`.
 pub fn from_ends(
-    nose: Vector2<f32>,
-    tail: Vector2<f32>,
+    nose: ImagePoint,
+    tail: ImagePoint,
     camera: &Camera,
     length: f32,
     range_m: f32,
 ) -> ClosedForm {
     let mid = camera.normalize(0.5 * (nose.x + tail.x), 0.5 * (nose.y + tail.y));
     let frame = line_of_sight_frame(mid);
-    let angle = |p: Vector2<f32>| {
+    let angle = |p: ImagePoint| {
         let n = camera.normalize(p.x, p.y);
         let r = frame * Vector3::new(n.x, n.y, 1.0);
         Vector2::new(r.x / r.z, r.y / r.z)

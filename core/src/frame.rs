@@ -157,10 +157,10 @@ impl FrameResult {
         let other = [self.pitch_alt_deg, self.yaw_alt_deg, self.image_range_m];
         let silhouette = self.silhouette.map_or([0.0; 11], |s| {
             [
-                s.axis.centre.0,
-                s.axis.centre.1,
-                s.axis.dir.0,
-                s.axis.dir.1,
+                s.axis.centre.x,
+                s.axis.centre.y,
+                s.axis.dir.x,
+                s.axis.dir.y,
                 s.nose_t,
                 s.nose_ramp_offset_m,
                 s.tail_t,

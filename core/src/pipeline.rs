@@ -20,6 +20,7 @@ use crate::frame::{FrameError, FrameInput, FrameResult, Status};
 use crate::lut::table::Table;
 use crate::mask::BitMask;
 use crate::model::ProjectileModel;
+use crate::point::ImagePoint;
 use crate::pose::Pose;
 use crate::segment::{SegmentError, Segmenter, Target};
 #[cfg(feature = "shape-guided")]
@@ -153,10 +154,10 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
     fn measure(
         &mut self,
         input: &CheckedInput,
-        nose_dir: Option<(f32, f32)>,
+        nose_dir: Option<ImagePoint>,
     ) -> Result<Measurement, FrameError> {
         let (chip, config) = (input.chip, &self.config);
-        let aim = (0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
+        let aim = ImagePoint::new(0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
         let target = self
             .detect
             .detect(chip, &config.detect, aim)
@@ -194,7 +195,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         &self,
         chip: &ChipView,
         target: &Target,
-        nose_dir: Option<(f32, f32)>,
+        nose_dir: Option<ImagePoint>,
     ) -> Result<Silhouette, FrameError> {
         extremes::measure(
             chip,

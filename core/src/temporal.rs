@@ -10,6 +10,7 @@
 //! (nose-first flight), a shrinking one that it points towards the camera.
 
 use crate::capacity::MAX_WINDOW;
+use crate::point::ImagePoint;
 
 /// The temporal stage's tunables.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -50,7 +51,7 @@ pub struct Prediction {
     /// The frame's time from the first frame kept, s.
     pub t: f32,
     /// The nose's image direction of the last frame with a pose, if any.
-    pub nose_dir: Option<(f32, f32)>,
+    pub nose_dir: Option<ImagePoint>,
 }
 
 /// One frame's observation for the temporal state.
@@ -59,7 +60,7 @@ pub struct Observation {
     /// The slant range from the image, m (None where the range sensor's is used).
     pub image_range_m: Option<f32>,
     /// The nose's image direction.
-    pub nose_dir: (f32, f32),
+    pub nose_dir: ImagePoint,
 }
 
 /// The temporal stage's estimate for a frame with a pose.
@@ -110,7 +111,7 @@ pub struct Temporal {
     last_t: f32,
     smoothed: Option<Sample>,
     last_away: Option<bool>,
-    nose_dir: Option<(f32, f32)>,
+    nose_dir: Option<ImagePoint>,
 }
 
 impl Default for Temporal {

@@ -21,7 +21,8 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use imade_core::lut::render::{Placement, View, draw};
 use imade_core::shape_guided::{ShapeGuided, ShapeGuidedConfig};
 use imade_core::{
-    ChipMask, ChipView, Config, GuidedLoopConfig, GuidedMethod, MatchConfig, Pipeline, REF_1378X80,
+    ChipMask, ChipView, Config, GuidedLoopConfig, GuidedMethod, ImagePoint, MatchConfig, Pipeline,
+    REF_1378X80,
 };
 use std::hint::black_box;
 use std::time::Duration;
@@ -40,8 +41,8 @@ const BODY: f32 = 60.0;
 fn silhouette(target: &mut ChipMask, ss: usize, origin: (f32, f32), scale: f32, turn_deg: f32) {
     let angle = (-35.0f32 + turn_deg).to_radians();
     let placement = Placement {
-        origin: (origin.0 * ss as f32, origin.1 * ss as f32),
-        dir: (angle.cos(), angle.sin()),
+        origin: ImagePoint::new(origin.0 * ss as f32, origin.1 * ss as f32),
+        dir: ImagePoint::new(angle.cos(), angle.sin()),
         px_per_unit: 100.0 * scale * ss as f32,
     };
     let view = View {

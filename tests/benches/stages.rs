@@ -19,7 +19,7 @@ use imade_core::segment::background::Background;
 use imade_core::segment::label::{Labeler, Rect};
 use imade_core::segment::{Segmenter, Target};
 use imade_core::table_match::TableMatch;
-use imade_core::{Config, Pipeline};
+use imade_core::{Config, ImagePoint, Pipeline};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -40,7 +40,7 @@ fn prepare(fixture: &Fixture) -> Vec<Prepared<'_>> {
         .iter()
         .filter_map(|frame| {
             let chip = frame.view();
-            let aim = (0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
+            let aim = ImagePoint::new(0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
             let target = segmenter.detect(&chip, &config.detect, aim).ok()?;
             let background = segmenter.background().clone();
             let (model, camera) = (&fixture.model, &fixture.camera);
@@ -119,7 +119,7 @@ fn stages(c: &mut Criterion<ThreadCpuTime>) {
         let mut segmenter: Box<Segmenter> = Box::default();
         b.iter(|| {
             let chip = next().view();
-            let aim = (0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
+            let aim = ImagePoint::new(0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
             black_box(segmenter.detect(&black_box(chip), &config.detect, aim)).is_ok()
         });
     });

@@ -17,7 +17,7 @@ use imade_core::mask::ChipMask;
 use imade_core::segment::Segmenter;
 use imade_core::segment::background::Background;
 use imade_core::table_match::{MatchConfig, MatchInput, pose};
-use imade_core::{BodyPolarity, Camera, Config, REF_1378X80};
+use imade_core::{BodyPolarity, Camera, Config, ImagePoint, REF_1378X80};
 use imade_core_fuzz::synth::{self, ChipSpec, Raw, Shape};
 use imade_core_fuzz::table::{Header, build, read_all, with_checksum};
 use libfuzzer_sys::fuzz_target;
@@ -91,7 +91,11 @@ fn prepared() -> &'static Prepared {
         let view = chip.view(ORIGIN).expect("a valid chip");
         let mut segmenter: Box<Segmenter> = Box::default();
         let target = segmenter
-            .detect(&view, &Config::DEFAULT.detect, (128.0, 128.0))
+            .detect(
+                &view,
+                &Config::DEFAULT.detect,
+                ImagePoint::new(128.0, 128.0),
+            )
             .expect("the projectile is found");
         let background = segmenter.background().clone();
         let config = Config::DEFAULT.silhouette;

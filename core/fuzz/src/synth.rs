@@ -7,7 +7,7 @@
 use arbitrary::Arbitrary;
 use imade_core::lut::render::{self, Placement, View};
 use imade_core::mask::ChipMask;
-use imade_core::{ChipError, ChipView, REF_1378X80};
+use imade_core::{ChipError, ChipView, ImagePoint, REF_1378X80};
 
 /// Largest side drawn, px: beyond the core's 512 so that oversized chips are tried too.
 const MAX_SIDE: usize = 540;
@@ -130,9 +130,9 @@ fn noise(seed: u32, x: usize, y: usize) -> f32 {
 }
 
 /// The unit vector at `angle` (1/65536 turn).
-fn direction(angle: u16) -> (f32, f32) {
+fn direction(angle: u16) -> ImagePoint {
     let a = f32::from(angle) / 65536.0 * std::f32::consts::TAU;
-    (a.cos(), a.sin())
+    ImagePoint::new(a.cos(), a.sin())
 }
 
 /// Draws `spec`; `scratch` is a mask for the projectile silhouettes.
@@ -191,7 +191,7 @@ pub fn synthesize(spec: &ChipSpec, scratch: &mut ChipMask) -> Chip {
                     roll_deg: f32::from(roll % 90),
                 };
                 let placement = Placement {
-                    origin: (f32::from(centre.0 % 1024), f32::from(centre.1 % 1024)),
+                    origin: ImagePoint::new(f32::from(centre.0 % 1024), f32::from(centre.1 % 1024)),
                     dir: direction(angle),
                     px_per_unit: f32::from(px_per_m % 256),
                 };
@@ -247,7 +247,7 @@ fn draw_bar(
     (width, height): (usize, usize),
     centre: (f32, f32),
     size: (f32, f32),
-    dir: (f32, f32),
+    dir: ImagePoint,
     level: f32,
 ) {
     // The rectangle lies within its half-diagonal of the centre.
@@ -259,8 +259,8 @@ fn draw_bar(
     for y in span(centre.1, height) {
         for x in span(centre.0, width) {
             let (dx, dy) = (x as f32 - centre.0, y as f32 - centre.1);
-            let along = dx * dir.0 + dy * dir.1;
-            let across = -dx * dir.1 + dy * dir.0;
+            let along = dx * dir.x + dy * dir.y;
+            let across = -dx * dir.y + dy * dir.x;
             if 2.0 * along.abs() <= size.0 && 2.0 * across.abs() <= size.1 {
                 image[y * width + x] += level;
             }

@@ -9,6 +9,7 @@ use super::{Axis, row_span};
 use crate::capacity::PROFILE_BINS;
 use crate::chip::ChipView;
 use crate::config::BodyPolarity;
+use crate::point::ImagePoint;
 use crate::segment::background::Background;
 
 /// The width profile: `width[i]` at `t = start + (i + 0.5) * bin` px along the axis.
@@ -43,7 +44,7 @@ impl WidthProfile {
         let sign = polarity.sign();
         let cutoff = -OPPOSITE_CUTOFF_SIGMA * background.sigma();
         let extent = reach + band + 1.0;
-        let (cx, cy) = axis.centre;
+        let ImagePoint { x: cx, y: cy } = axis.centre;
         let x_lo = (cx - extent).max(0.0) as usize;
         let x_hi = ((cx + extent).max(0.0) as usize + 1).min(chip.width());
         let y_lo = (cy - extent).max(0.0) as usize;

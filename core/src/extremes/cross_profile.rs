@@ -15,6 +15,7 @@ use crate::chip::ChipView;
 use crate::config::BodyPolarity;
 use crate::math::least_squares::{self, Normal};
 use crate::math::normal;
+use crate::point::ImagePoint;
 use crate::segment::background::Background;
 use crate::segment::select::Shape;
 use nalgebra::SVector;
@@ -108,7 +109,7 @@ pub fn bin(
     let sign = polarity.sign();
     // The pixels around the stretch: its bounding box in chip coordinates.
     let reach = libm::fabsf(stretch.t0).max(libm::fabsf(stretch.t1)) + half_width + 1.0;
-    let (cx, cy) = shape.centre;
+    let ImagePoint { x: cx, y: cy } = shape.centre;
     let x_lo = (cx - reach).max(0.0) as usize;
     let x_hi = ((cx + reach).max(0.0) as usize + 1).min(chip.width());
     let y_lo = (cy - reach).max(0.0) as usize;
@@ -123,7 +124,7 @@ pub fn bin(
             (x_lo, x_hi),
         );
         chip.for_each_in_span(y, x0, x1, |x, v| {
-            let (along, across) = shape.local(x as f32, y as f32);
+            let (along, across) = shape.line().local(x as f32, y as f32);
             if along < stretch.t0 || along >= stretch.t1 || libm::fabsf(across) >= half_width {
                 return;
             }

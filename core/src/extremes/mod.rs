@@ -13,6 +13,7 @@ pub mod cross_profile;
 
 use crate::chip::ChipView;
 use crate::model::ProjectileModel;
+use crate::point::ImagePoint;
 use crate::segment::Target;
 use crate::segment::background::Background;
 use axial_profile::WidthProfile;
@@ -73,27 +74,24 @@ impl Default for SilhouetteConfig {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Axis {
     /// A point on the axis, chip px.
-    pub centre: (f32, f32),
+    pub centre: ImagePoint,
     /// Unit direction.
-    pub dir: (f32, f32),
+    pub dir: ImagePoint,
 }
 
 impl Axis {
     /// Signed distances of a chip point along and across the axis, px.
     pub fn local(&self, x: f32, y: f32) -> (f32, f32) {
-        let (dx, dy) = (x - self.centre.0, y - self.centre.1);
+        let (dx, dy) = (x - self.centre.x, y - self.centre.y);
         (
-            dx * self.dir.0 + dy * self.dir.1,
-            -dx * self.dir.1 + dy * self.dir.0,
+            dx * self.dir.x + dy * self.dir.y,
+            -dx * self.dir.y + dy * self.dir.x,
         )
     }
 
     /// The chip point `t` px along the axis from its centre.
-    pub fn point(&self, t: f32) -> (f32, f32) {
-        (
-            self.centre.0 + t * self.dir.0,
-            self.centre.1 + t * self.dir.1,
-        )
+    pub fn point(&self, t: f32) -> ImagePoint {
+        self.centre + self.dir * t
     }
 }
 
@@ -103,25 +101,25 @@ impl Axis {
 /// per-pixel test over the span selects the same pixels as over the whole range, without
 /// visiting the rest of a slanted stretch's bounding box.
 pub fn row_span(
-    centre: (f32, f32),
-    dir: (f32, f32),
+    centre: ImagePoint,
+    dir: ImagePoint,
     y: usize,
     along: (f32, f32),
     across: f32,
     x_range: (usize, usize),
 ) -> (usize, usize) {
-    let dy = y as f32 - centre.1;
+    let dy = y as f32 - centre.y;
     let (mut lo, mut hi) = (x_range.0 as f32, x_range.1 as f32);
-    // Distance = slope (x - centre.0) + offset, within min..max.
+    // Distance = slope (x - centre.x) + offset, within min..max.
     for (slope, offset, min, max) in [
-        (dir.0, dy * dir.1, along.0, along.1),
-        (-dir.1, dy * dir.0, -across, across),
+        (dir.x, dy * dir.y, along.0, along.1),
+        (-dir.y, dy * dir.x, -across, across),
     ] {
         if slope.is_nan() || libm::fabsf(slope) < 1e-3 {
             continue; // nearly constant along the row (or NaN): no narrowing
         }
-        let a = (min - offset) / slope + centre.0;
-        let b = (max - offset) / slope + centre.0;
+        let a = (min - offset) / slope + centre.x;
+        let b = (max - offset) / slope + centre.x;
         let (a, b) = if a <= b { (a, b) } else { (b, a) };
         if a <= b {
             lo = lo.max(a - 1.0);
@@ -177,7 +175,7 @@ pub fn measure(
     background: &Background,
     target: &Target,
     model: &ProjectileModel,
-    prior_dir: Option<(f32, f32)>,
+    prior_dir: Option<ImagePoint>,
     config: &SilhouetteConfig,
 ) -> Result<Silhouette, ExtremesError> {
     let shape = &target.shape;
@@ -242,7 +240,7 @@ pub fn measure(
     let nose_high = if libm::fabsf(evidence) < config.min_nose_evidence
         && let Some(prior) = prior_dir
     {
-        axis.dir.0 * prior.0 + axis.dir.1 * prior.1 >= 0.0
+        axis.dir.dot(prior) >= 0.0
     } else {
         evidence >= 0.0
     };
@@ -272,7 +270,7 @@ pub fn measure(
         (
             Axis {
                 centre: axis.centre,
-                dir: (-axis.dir.0, -axis.dir.1),
+                dir: -axis.dir,
             },
             -nose_t,
             -tail_t,
@@ -294,9 +292,9 @@ pub fn measure(
 fn corrected_axis(axis: &Axis, back: &CrossSection, front: &CrossSection, lever: f32) -> Axis {
     let turn = libm::atanf((front.offset_px - back.offset_px) / lever.max(1.0));
     let (s, c) = libm::sincosf(turn);
-    let dir = (
-        axis.dir.0 * c - axis.dir.1 * s,
-        axis.dir.0 * s + axis.dir.1 * c,
+    let dir = ImagePoint::new(
+        axis.dir.x * c - axis.dir.y * s,
+        axis.dir.x * s + axis.dir.y * c,
     );
     let shifted = shifted(axis, 0.5 * (back.offset_px + front.offset_px));
     Axis {
@@ -308,9 +306,9 @@ fn corrected_axis(axis: &Axis, back: &CrossSection, front: &CrossSection, lever:
 /// The axis moved `offset` px across itself.
 fn shifted(axis: &Axis, offset: f32) -> Axis {
     Axis {
-        centre: (
-            axis.centre.0 - offset * axis.dir.1,
-            axis.centre.1 + offset * axis.dir.0,
+        centre: ImagePoint::new(
+            axis.centre.x - offset * axis.dir.y,
+            axis.centre.y + offset * axis.dir.x,
         ),
         dir: axis.dir,
     }

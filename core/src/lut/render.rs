@@ -9,6 +9,7 @@
 
 use super::table::Entry;
 use crate::model::ProjectileModel;
+use crate::point::ImagePoint;
 use crate::pose::RAD;
 use embedded_graphics::Drawable;
 use embedded_graphics::pixelcolor::BinaryColor;
@@ -37,9 +38,9 @@ pub struct View {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Placement {
     /// Target pixel of the body origin (pixel centres at integers).
-    pub origin: (f32, f32),
+    pub origin: ImagePoint,
     /// Unit image vector of the projected axis, tail to nose (`+u`); `+v` is it turned by +90°.
-    pub dir: (f32, f32),
+    pub dir: ImagePoint,
     /// Scale, px per unit of the silhouette frame (per metre for the model's triangles, per
     /// body diameter for a table entry).
     pub px_per_unit: f32,
@@ -48,18 +49,18 @@ pub struct Placement {
 impl Placement {
     /// The target pixel nearest to silhouette-frame point `(u, v)`.
     fn pixel(&self, (u, v): (f32, f32)) -> Point {
-        let x = self.origin.0 + self.px_per_unit * (u * self.dir.0 - v * self.dir.1);
-        let y = self.origin.1 + self.px_per_unit * (u * self.dir.1 + v * self.dir.0);
+        let x = self.origin.x + self.px_per_unit * (u * self.dir.x - v * self.dir.y);
+        let y = self.origin.y + self.px_per_unit * (u * self.dir.y + v * self.dir.x);
         Point::new(libm::roundf(x) as i32, libm::roundf(y) as i32)
     }
 
     /// True when the placement is finite and a shape of `extent` units stays under 16384 px.
     fn is_sane(&self, extent: f32) -> bool {
         [
-            self.origin.0,
-            self.origin.1,
-            self.dir.0,
-            self.dir.1,
+            self.origin.x,
+            self.origin.y,
+            self.dir.x,
+            self.dir.y,
             self.px_per_unit,
         ]
         .iter()
@@ -251,8 +252,8 @@ mod tests {
         draw_it(
             &mut mask,
             Placement {
-                origin: (255.0, 255.0),
-                dir: (0.6, 0.8),
+                origin: ImagePoint::new(255.0, 255.0),
+                dir: ImagePoint::new(0.6, 0.8),
                 px_per_unit,
             },
         );
@@ -310,8 +311,8 @@ mod tests {
         let mut mask = BitMask::<{ crate::capacity::mask_words(64) }>::default();
         mask.reset(64, 64).unwrap();
         let placement = Placement {
-            origin: (32.0, 32.0),
-            dir: (1.0, 0.0),
+            origin: ImagePoint::new(32.0, 32.0),
+            dir: ImagePoint::new(1.0, 0.0),
             px_per_unit: 10.0,
         };
         // A table edge 2e8 units out: the vertex lands near i32::MAX px.

@@ -9,6 +9,7 @@
 use super::background::Background;
 use crate::capacity::MAX_CHIP_SIDE;
 use crate::chip::ChipView;
+use crate::point::ImagePoint;
 
 /// A horizontal run of pixels of one class.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -136,16 +137,16 @@ impl Moments {
         self.bbox.y1 = self.bbox.y1.max(other.bbox.y1);
     }
 
-    /// Centroid (x, y), px.
-    pub fn centroid(&self) -> (f32, f32) {
+    /// Centroid, px.
+    pub fn centroid(&self) -> ImagePoint {
         let n = self.n.max(1) as f32;
-        (self.sx as f32 / n, self.sy as f32 / n)
+        ImagePoint::new(self.sx as f32 / n, self.sy as f32 / n)
     }
 
     /// Central second moments (xx, yy, xy), px^2, each pixel a unit square (variance 1/12 added).
     pub fn covariance(&self) -> (f32, f32, f32) {
         let n = self.n.max(1) as f32;
-        let (cx, cy) = self.centroid();
+        let ImagePoint { x: cx, y: cy } = self.centroid();
         let xx = self.sxx as f32 / n - cx * cx + 1.0 / 12.0;
         let yy = self.syy as f32 / n - cy * cy + 1.0 / 12.0;
         let xy = self.sxy as f32 / n - cx * cy;
@@ -445,7 +446,7 @@ mod tests {
                 y1: 5
             }
         );
-        let (cx, cy) = m.centroid();
+        let ImagePoint { x: cx, y: cy } = m.centroid();
         assert!((cx - 5.0).abs() < 1e-6 && (cy - 3.0).abs() < 1e-6);
         let (xx, yy, xy) = m.covariance();
         // Continuous 5 x 3 box: width^2 / 12.

@@ -16,6 +16,7 @@ use crate::chip::ChipView;
 use crate::config::BodyPolarity;
 use crate::extremes::Silhouette;
 use crate::mask::BitMask;
+use crate::point::ImagePoint;
 use background::Background;
 use label::{LabelError, Labeler, Moments, Rect};
 use select::{Candidate, Selection, Shape};
@@ -167,7 +168,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         &mut self,
         chip: &ChipView,
         config: &DetectConfig,
-        aim: (f32, f32),
+        aim: ImagePoint,
     ) -> Result<Target, SegmentError> {
         self.mask
             .reset(chip.width(), chip.height())

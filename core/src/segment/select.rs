@@ -4,6 +4,8 @@
 use super::label::Moments;
 use crate::capacity::{MAX_COMPONENTS, MAX_TARGET_PARTS};
 use crate::config::BodyPolarity;
+use crate::extremes::Axis;
+use crate::point::ImagePoint;
 
 /// A candidate component: its root label and statistics.
 #[derive(Debug, Clone, Copy)]
@@ -18,9 +20,9 @@ pub struct Candidate {
 #[derive(Debug, Clone, Copy)]
 pub struct Shape {
     /// Centroid, chip px.
-    pub centre: (f32, f32),
+    pub centre: ImagePoint,
     /// Unit vector of the major axis.
-    pub axis: (f32, f32),
+    pub axis: ImagePoint,
     /// Standard deviation along the major axis, px.
     pub major_sd: f32,
     /// Standard deviation across it, px.
@@ -37,7 +39,7 @@ impl Shape {
         let angle = 0.5 * libm::atan2f(2.0 * xy, xx - yy);
         Shape {
             centre: m.centroid(),
-            axis: (libm::cosf(angle), libm::sinf(angle)),
+            axis: ImagePoint::new(libm::cosf(angle), libm::sinf(angle)),
             major_sd: libm::sqrtf((mean + root).max(0.0)),
             minor_sd: libm::sqrtf((mean - root).max(1.0 / 12.0)),
         }
@@ -48,13 +50,12 @@ impl Shape {
         self.major_sd / self.minor_sd.max(1e-3)
     }
 
-    /// Signed distance of a point along the axis and across it from the centre, px.
-    pub fn local(&self, x: f32, y: f32) -> (f32, f32) {
-        let (dx, dy) = (x - self.centre.0, y - self.centre.1);
-        (
-            dx * self.axis.0 + dy * self.axis.1,
-            -dx * self.axis.1 + dy * self.axis.0,
-        )
+    /// The major axis as a line through the centroid.
+    pub fn line(&self) -> Axis {
+        Axis {
+            centre: self.centre,
+            dir: self.axis,
+        }
     }
 }
 
@@ -69,11 +70,11 @@ pub struct Selection {
 
 /// Score of a candidate: significance (|sum of residuals| over noise), elongation, and nearness
 /// to the aim point. Larger is better.
-fn score(c: &Candidate, sigma: f32, aim: (f32, f32), chip_diag: f32) -> f32 {
+fn score(c: &Candidate, sigma: f32, aim: ImagePoint, chip_diag: f32) -> f32 {
     let m = &c.moments;
     let significance = m.sum_residual.abs() / (sigma.max(1e-3) * libm::sqrtf(m.n as f32));
     let shape = Shape::of(m);
-    let (dx, dy) = (shape.centre.0 - aim.0, shape.centre.1 - aim.1);
+    let (dx, dy) = (shape.centre.x - aim.x, shape.centre.y - aim.y);
     let distance = libm::sqrtf(dx * dx + dy * dy) / chip_diag.max(1.0);
     libm::logf(1.0 + significance) + 0.5 * libm::logf(shape.elongation())
         - 4.0 * distance * distance
@@ -109,7 +110,7 @@ fn adjacent(a: &Moments, b: &Moments, gap: f32) -> bool {
 pub fn select(
     candidates: &heapless::Vec<Candidate, MAX_COMPONENTS>,
     sigma: f32,
-    aim: (f32, f32),
+    aim: ImagePoint,
     chip_diag: f32,
     polarity: Option<BodyPolarity>,
 ) -> Option<Selection> {
@@ -147,8 +148,8 @@ pub fn select(
         if c.label == main.label || c.moments.class != main.moments.class {
             continue;
         }
-        let (cx, cy) = c.moments.centroid();
-        let (along, across) = shape.local(cx, cy);
+        let centroid = c.moments.centroid();
+        let (along, across) = shape.line().local(centroid.x, centroid.y);
         let lateral_limit = (3.0 * shape.minor_sd).max(2.0);
         // The gap between the two pieces' extents along the axis.
         let fragment_half_length = 1.732 * Shape::of(&c.moments).major_sd;

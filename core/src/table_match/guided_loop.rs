@@ -180,18 +180,22 @@ pub fn moved_input(
     let o = Vector2::new(origin.0 as f32, origin.1 as f32);
     let [nose, tail] = matched
         .ends
-        .map(|(x, y)| transform.apply(Vector2::new(x, y) - o));
+        .map(|end| transform.apply(Vector2::from(end) - o));
     let length = (nose - tail).norm();
     if !(length.is_finite() && length > f32::EPSILON) {
         return None;
     }
     let dir = (nose - tail) / length;
-    let (cx, cy) = silhouette.axis.centre;
-    let centre = transform.apply(Vector2::new(cx, cy));
-    let across = Vector2::new(-silhouette.axis.dir.1, silhouette.axis.dir.0);
+    let centre = transform.apply(silhouette.axis.centre.into());
+    let across: Vector2<f32> = silhouette.axis.dir.perpendicular().into();
     let widening = (transform.matrix() * across).norm();
-    let closed =
-        closed_form::from_ends(nose + o, tail + o, camera, model.length_m, matched.range_m);
+    let closed = closed_form::from_ends(
+        (nose + o).into(),
+        (tail + o).into(),
+        camera,
+        model.length_m,
+        matched.range_m,
+    );
     // The table match adds these to the silhouette's ends (the ogive's ramp and the base disc).
     let aspect = closed.aspect_deg * RAD;
     let px_per_m = matched.section.diameter_px * widening / model.diameter_m;
@@ -209,8 +213,8 @@ pub fn moved_input(
     );
     let moved = Silhouette {
         axis: Axis {
-            centre: (centre.x, centre.y),
-            dir: (dir.x, dir.y),
+            centre: centre.into(),
+            dir: dir.into(),
         },
         nose_t: (nose - centre).dot(&dir) - nose_offset,
         tail_t: (tail - centre).dot(&dir) - tail_offset,
@@ -218,8 +222,8 @@ pub fn moved_input(
         ..*silhouette
     };
     let finite = [
-        moved.axis.centre.0,
-        moved.axis.centre.1,
+        moved.axis.centre.x,
+        moved.axis.centre.y,
         moved.nose_t,
         moved.tail_t,
         moved.diameter_px,
@@ -244,7 +248,7 @@ pub fn judge(
         .ends
         .iter()
         .zip(&next.ends)
-        .map(|(a, b)| libm::hypotf(b.0 - a.0, b.1 - a.1))
+        .map(|(a, b)| libm::hypotf(b.x - a.x, b.y - a.y))
         .fold(0.0f32, f32::max);
     let agrees = tilt_change <= config.max_tilt_change_deg && end_shift <= config.max_end_shift_px;
     if !agrees {
@@ -267,6 +271,7 @@ mod tests {
     use crate::extremes::SilhouetteConfig;
     use crate::lut::render::{Placement, View};
     use crate::model::REF_1378X80;
+    use crate::point::ImagePoint;
     use crate::table_match::search::Match;
     use crate::table_match::section::LambertSection;
 
@@ -282,8 +287,8 @@ mod tests {
     fn silhouette() -> Silhouette {
         Silhouette {
             axis: Axis {
-                centre: (128.0, 128.0),
-                dir: (1.0, 0.0),
+                centre: ImagePoint::new(128.0, 128.0),
+                dir: ImagePoint::new(1.0, 0.0),
             },
             nose_t: 60.0,
             nose_ramp_offset_m: {
@@ -302,10 +307,9 @@ mod tests {
     /// and tilt `tilt_deg`.
     fn matched(tilt_deg: f32, rms_px: f32, shift_px: f32) -> MatchedPose {
         let ends = [(190.0 + shift_px, 128.0), (62.0, 128.0)]
-            .map(|(x, y)| (x + ORIGIN.0 as f32, y + ORIGIN.1 as f32));
-        let to = |(x, y): (f32, f32)| Vector2::new(x, y);
+            .map(|(x, y)| ImagePoint::new(x, y) + ImagePoint::of_pixel(ORIGIN));
         MatchedPose {
-            solution: closed_form::from_ends(to(ends[0]), to(ends[1]), &CAMERA, 1.378, 1000.0),
+            solution: closed_form::from_ends(ends[0], ends[1], &CAMERA, 1.378, 1000.0),
             range_m: 1000.0,
             matched: Match {
                 tilt_deg,
@@ -326,8 +330,8 @@ mod tests {
                 roll_deg: 0.0,
             },
             placement: Placement {
-                origin: (126.0, 128.0),
-                dir: (1.0, 0.0),
+                origin: ImagePoint::new(126.0, 128.0),
+                dir: ImagePoint::new(1.0, 0.0),
                 px_per_unit: 8.0,
             },
             ends,
@@ -343,8 +347,8 @@ mod tests {
         let moved = moved_input(&sil, &first, &transform, ORIGIN, &CAMERA, &REF_1378X80)
             .expect("a finite move");
         let m = moved.silhouette;
-        assert!((m.axis.dir.0 - 1.0).abs() < 1e-6 && m.axis.dir.1.abs() < 1e-6);
-        assert!((m.axis.centre.0 - 131.0).abs() < 1e-4 && (m.axis.centre.1 - 126.0).abs() < 1e-4);
+        assert!((m.axis.dir.x - 1.0).abs() < 1e-6 && m.axis.dir.y.abs() < 1e-6);
+        assert!((m.axis.centre.x - 131.0).abs() < 1e-4 && (m.axis.centre.y - 126.0).abs() < 1e-4);
         assert_eq!(m.diameter_px, sil.diameter_px);
         // What the table match will take as the measured ends: the matched ends, moved.
         let aspect = moved.closed.aspect_deg * RAD;
@@ -356,8 +360,8 @@ mod tests {
             libm::cosf(aspect),
             px_per_m,
         );
-        assert!((m.axis.point(nose).0 - 193.0).abs() < 1e-3, "nose {nose}");
-        assert!((m.axis.point(tail).0 - 65.0).abs() < 1e-3, "tail {tail}");
+        assert!((m.axis.point(nose).x - 193.0).abs() < 1e-3, "nose {nose}");
+        assert!((m.axis.point(tail).x - 65.0).abs() < 1e-3, "tail {tail}");
         // The closed form of the moved ends: the same length, so the same aspect.
         assert!((moved.closed.aspect_deg - first.solution.aspect_deg).abs() < 0.05);
     }

@@ -21,10 +21,10 @@ use crate::extremes::{Axis, Silhouette};
 use crate::lut::render::{Placement, View};
 use crate::lut::table::Table;
 use crate::model::ProjectileModel;
+use crate::point::ImagePoint;
 use crate::pose::RAD;
 use crate::segment::background::Background;
 use crate::segment::select::Shape;
-use nalgebra::Vector2;
 
 /// Why the table match gave no pose.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -55,7 +55,7 @@ pub struct MatchedPose {
     /// Where the matched entry's silhouette lies on the chip (px per body diameter).
     pub placement: Placement,
     /// The projected nose tip and tail base, full-frame px.
-    pub ends: [(f32, f32); 2],
+    pub ends: [ImagePoint; 2],
 }
 
 /// One frame's measurements, as the table match needs them.
@@ -87,7 +87,7 @@ pub fn match_pose(
     let section = cylinder_section(frame, model, config)?;
     let axis = sil.axis;
     let sigma = section.sigma_px;
-    let across = Vector2::new(-axis.dir.1, axis.dir.0);
+    let across = axis.dir.perpendicular().into();
     let d_px = section.diameter_px;
     let reach = libm::fabsf(sil.nose_t).max(libm::fabsf(sil.tail_t)) + 4.0 * sigma + 6.0;
     let band = 0.5 * d_px * model.fin_tip_radius_m / model.radius_m() + 3.0 * sigma + 1.5;
@@ -151,14 +151,14 @@ pub fn match_pose(
             dir: axis.dir,
             px_per_unit: matched.px_per_d,
         },
-        ends: ends.map(|p| (p.x, p.y)),
+        ends,
     })
 }
 
 impl MatchedPose {
     /// The same match at another slant range (the smoothed one of the temporal stage).
     pub fn at_range(&self, camera: &Camera, model: &ProjectileModel, range_m: f32) -> ClosedForm {
-        let [nose, tail] = self.ends.map(|(x, y)| Vector2::new(x, y));
+        let [nose, tail] = self.ends;
         closed_form::from_ends(nose, tail, camera, model.length_m, range_m)
     }
 }
@@ -169,15 +169,12 @@ fn matched_ends(
     matched: &Match,
     model: &ProjectileModel,
     origin: (i32, i32),
-) -> [Vector2<f32>; 2] {
+) -> [ImagePoint; 2] {
     let half = 0.5 * model.length_m / model.diameter_m
         * libm::cosf(matched.tilt_deg * RAD)
         * matched.px_per_d;
-    let o = Vector2::new(origin.0 as f32, origin.1 as f32);
-    let at = |t: f32| {
-        let (x, y) = axis.point(t);
-        o + Vector2::new(x, y)
-    };
+    let o = ImagePoint::of_pixel(origin);
+    let at = |t: f32| o + axis.point(t);
     [at(matched.origin_t + half), at(matched.origin_t - half)]
 }
 

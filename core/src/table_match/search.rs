@@ -345,6 +345,7 @@ mod tests {
     use crate::config::BodyPolarity;
     use crate::extremes::Axis;
     use crate::model::REF_1378X80;
+    use crate::point::ImagePoint;
     use crate::segment::background::Background;
 
     /// The bundled table, built by `imade lut build --model ref-1378x80`.
@@ -386,8 +387,8 @@ mod tests {
         let data = render(&entry, k, t0);
         let chip = ChipView::gray8(&data, W, H, W, 0, 0).unwrap();
         let axis = Axis {
-            centre: ((W / 2) as f32, (H / 2) as f32),
-            dir: (1.0, 0.0),
+            centre: ImagePoint::new((W / 2) as f32, (H / 2) as f32),
+            dir: ImagePoint::new(1.0, 0.0),
         };
         let profile = WidthProfile::build(
             &chip,

@@ -4,6 +4,7 @@
 
 use crate::sim::mesh::Mesh;
 use anyhow::{Context, ensure};
+use imade_core::ImagePoint;
 use imade_core::lut::render::{self, Placement, View};
 use imade_core::lut::table::{
     self, CRC, HEADER_LEN, MAGIC, MODEL_ID_LEN, U_UNITS_PER_D, VERSION, grid_roll_deg,
@@ -192,10 +193,10 @@ fn entry(
 ) {
     let d = source.diameter_m();
     let (w, h) = (drawing.width(), drawing.height());
-    let centre = ((w / 2) as f32, (h / 2) as f32);
+    let centre = ImagePoint::new((w / 2) as f32, (h / 2) as f32);
     let placement = Placement {
         origin: centre,
-        dir: (1.0, 0.0),
+        dir: ImagePoint::new(1.0, 0.0),
         px_per_unit: PX_PER_D / d,
     };
     drawing.clear();
@@ -213,13 +214,13 @@ fn entry(
         let first = (0..h).find(|&y| drawing.get(x, y))?;
         let last = (0..h).rev().find(|&y| drawing.get(x, y))?;
         Some((
-            (first as f32 - 0.5 - centre.1) / PX_PER_D,
-            (last as f32 + 0.5 - centre.1) / PX_PER_D,
+            (first as f32 - 0.5 - centre.y) / PX_PER_D,
+            (last as f32 + 0.5 - centre.y) / PX_PER_D,
         ))
     };
     let edges: Vec<Option<(f32, f32)>> = (0..w).map(column_edges).collect();
     let at = |u: f32| -> (f32, f32) {
-        let x = u * PX_PER_D + centre.0;
+        let x = u * PX_PER_D + centre.x;
         let x0 = (x.floor().max(0.0) as usize).min(w - 2);
         let f = (x - x0 as f32).clamp(0.0, 1.0);
         match (edges[x0], edges[x0 + 1]) {
