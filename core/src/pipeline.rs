@@ -70,8 +70,14 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
     /// The pipeline matching its poses against `table` (validated by [`Table::parse_for`] for
     /// this pipeline's model), and drawing the shape prior.
     pub const fn with_table(mut self, table: Table<'static>) -> Self {
-        self.table_match = self.table_match.with_table(table);
+        self.set_table(table);
         self
+    }
+
+    /// Matches against `table` from now on, in place: a pipeline too large to be moved on a
+    /// small stack (the firmware's) is given its table this way.
+    pub const fn set_table(&mut self, table: Table<'static>) {
+        self.table_match.set_table(table);
     }
 
     /// The configuration.

@@ -218,8 +218,14 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
 
     /// The stage matching against `table` (validated by [`Table::parse_for`] for the model).
     pub const fn with_table(mut self, table: Table<'static>) -> Self {
-        self.table = Some(table);
+        self.set_table(table);
         self
+    }
+
+    /// Matches against `table` from now on (validated by [`Table::parse_for`] for the model);
+    /// in place, so that a stage inside a large pipeline is not moved.
+    pub const fn set_table(&mut self, table: Table<'static>) {
+        self.table = Some(table);
     }
 
     /// The shape prior of the last frame: the model's silhouette rendered at the matched pose
