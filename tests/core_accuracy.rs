@@ -4,7 +4,7 @@
 
 use imade_core::lut::table::Table;
 use imade_core::{ChipView, pose::wrap_deg};
-use imade_core::{Config, FrameInput, Pipeline, REF_1378X80, Status};
+use imade_core::{Config, FrameInput, Pipeline, Status};
 use imade_tests::render::{ChipStyle, Rng, TruePose, chip_u8, project};
 use imade_tests::{TELESCOPE, bundled_table, core_camera};
 use proptest::prelude::*;
@@ -73,7 +73,11 @@ fn estimate(
         &mut Rng(seed),
     );
     let chip = ChipView::gray8(&pixels, CHIP, CHIP, CHIP, origin.0 as i32, origin.1 as i32).ok()?;
-    let pipeline: Pipeline = Pipeline::new(Config::DEFAULT, core_camera(&TELESCOPE), REF_1378X80);
+    let pipeline: Pipeline = Pipeline::new(
+        Config::DEFAULT,
+        core_camera(&TELESCOPE),
+        imade_tests::reference_model(),
+    );
     let mut pipeline = match table {
         Some(t) => pipeline.with_table(t),
         None => pipeline,

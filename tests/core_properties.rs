@@ -9,8 +9,7 @@
 //!   [-180, 180] deg for both candidates.
 
 use imade_core::{
-    BodyPolarity, ChipView, Config, DetectConfig, FrameInput, FrameResult, Pipeline, REF_1378X80,
-    Status,
+    BodyPolarity, ChipView, Config, DetectConfig, FrameInput, FrameResult, Pipeline, Status,
 };
 use imade_tests::render::{ChipStyle, Rng, TruePose, chip_u8, project};
 use imade_tests::{TELESCOPE, core_camera};
@@ -212,7 +211,7 @@ proptest! {
             },
             ..Config::DEFAULT
         };
-        let mut pipeline: Box<Pipeline> = Box::new(Pipeline::new(config, core_camera(&TELESCOPE), REF_1378X80));
+        let mut pipeline: Box<Pipeline> = Box::new(Pipeline::new(config, core_camera(&TELESCOPE), imade_tests::reference_model()));
         for k in 0..3 {
             let (samples, origin) = scene.render(k);
             let (w, h) = (scene.width, scene.height);

@@ -4,7 +4,7 @@
 
 use imade_core::segment::CapacityKind;
 use imade_core::{
-    BodyPolarity, Camera, ChipView, Config, DetectConfig, FrameInput, Pipeline, REF_1378X80, Status,
+    BodyPolarity, Camera, ChipView, Config, DetectConfig, FrameInput, Pipeline, Status,
 };
 use imade_tests::render::{ChipStyle, Rng, TruePose, chip_u8, project};
 use imade_tests::{TELESCOPE, core_camera};
@@ -59,7 +59,11 @@ fn process(
 }
 
 fn new_pipeline(config: Config) -> Box<Pipeline> {
-    Box::new(Pipeline::new(config, core_camera(&TELESCOPE), REF_1378X80))
+    Box::new(Pipeline::new(
+        config,
+        core_camera(&TELESCOPE),
+        imade_tests::reference_model(),
+    ))
 }
 
 fn iou(pipeline: &Pipeline, truth: &[bool]) -> f64 {
@@ -261,7 +265,8 @@ fn a_bad_range_or_camera_is_bad_input() {
         fx: 0.0,
         ..core_camera(&TELESCOPE)
     };
-    let mut pipeline: Pipeline = Pipeline::new(Config::DEFAULT, bad_camera, REF_1378X80);
+    let mut pipeline: Pipeline =
+        Pipeline::new(Config::DEFAULT, bad_camera, imade_tests::reference_model());
     let result = process(&mut pipeline, &pixels, (0, 0), 0.0, None);
     assert_eq!(result.status, Status::BadInput);
 }

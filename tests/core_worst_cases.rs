@@ -10,13 +10,17 @@
 use imade_core::segment::CapacityKind;
 use imade_core::{
     BodyPolarity, ChipError, ChipView, Config, DetectConfig, FrameInput, FrameResult, Pipeline,
-    REF_1378X80, Status,
+    Status,
 };
 use imade_tests::render::{ChipStyle, Rng, TruePose, blur, chip_u8, coverage, project};
 use imade_tests::{TELESCOPE, core_camera};
 
 fn pipeline(config: Config) -> Box<Pipeline> {
-    Box::new(Pipeline::new(config, core_camera(&TELESCOPE), REF_1378X80))
+    Box::new(Pipeline::new(
+        config,
+        core_camera(&TELESCOPE),
+        imade_tests::reference_model(),
+    ))
 }
 
 /// Processes one 8-bit `side` x `side` chip (or a 16-bit one) with a fresh pipeline.

@@ -12,7 +12,6 @@
 
 use anyhow::{Context, anyhow, ensure};
 use imade_core::Pipeline;
-use imade_host::lut::table_for;
 use imade_host::pack::pack_clip;
 use imade_host::run::{RangeArg, RunArgs, run};
 use imade_pack::{TableUse, read_header, read_record, replay};
@@ -99,10 +98,10 @@ fn host_outcomes(mut packed: &[u8]) -> anyhow::Result<Vec<String>> {
         header.table == TableUse::Bundled,
         "the clip should use its bundled table"
     );
-    let model = header.model().context("unknown projectile")?;
-    let table = table_for("bundled", model)?.context("no bundled table")?;
+    let model = imade_host::model::for_clip(&header.projectile, None)?;
+    let table = model.table().context("no bundled table")?;
     let mut pipeline: Box<Pipeline> =
-        Box::new(Pipeline::new(header.config(), header.camera, *model).with_table(table));
+        Box::new(Pipeline::new(header.config(), header.camera, model).with_table(table));
     let mut chip = vec![0u16; imade_core::capacity::MAX_CHIP_PIXELS];
     (0..header.records)
         .map(|_| {

@@ -7,7 +7,7 @@
 pub mod render;
 
 use imade_core::lut::table::Table;
-use imade_core::{Camera, REF_1378X80};
+use imade_core::{Camera, ProjectileModel};
 use render::Intrinsics;
 
 /// The telescope of the tests' rendered chips (and of the fixtures): fx = fy = 100000 px, principal
@@ -29,10 +29,17 @@ pub fn core_camera(intrinsics: &Intrinsics) -> Camera {
     }
 }
 
-/// The bundled silhouette table of the reference projectile, validated.
+/// The bundled model file of the reference projectile `ref-1378x80`, validated.
+pub fn reference_model() -> ProjectileModel<'static> {
+    static BYTES: &[u8] = include_bytes!("../fixtures/models/ref-1378x80.model");
+    ProjectileModel::parse(BYTES).expect("the bundled reference model is valid")
+}
+
+/// The silhouette table the reference projectile's model file carries.
 pub fn bundled_table() -> Table<'static> {
-    static BYTES: &[u8] = include_bytes!("../fixtures/lut/ref-1378x80.lut");
-    Table::parse_for(BYTES, &REF_1378X80).expect("the bundled table is valid")
+    reference_model()
+        .table()
+        .expect("the reference model carries its table")
 }
 
 /// A result's errors against the truth, normalized to 1 km (`docs/geometry.md`): Tx, Ty,

@@ -4,12 +4,11 @@
 //! wrong pose. The IoU against the truth of the prior and of each method's mask is compared, as
 //! the paper's Fig. 19 does. Run with `--nocapture` for the tables.
 
-use imade_core::lut::table::Table;
 use imade_core::shape_guided::{ShapeGuided, ShapeGuidedConfig};
 use imade_core::table_match::guided_loop::{LoopOutcome, LoopStop};
 use imade_core::{
     Camera, ChipMask, ChipView, Config, FrameInput, GuidedLoopConfig, GuidedMethod, MatchConfig,
-    Pipeline, REF_1378X80, RangeUse, Status,
+    Pipeline, RangeUse, Status,
 };
 use imade_host::clip::{Clip, load_chip, load_mask};
 use imade_tests::pose_errors;
@@ -309,7 +308,8 @@ fn fixture_clip_blind_prior_and_refined_masks() {
         cx: cam.cx as f32,
         cy: cam.cy as f32,
     };
-    let mut pipeline: Pipeline = Pipeline::new(Config::DEFAULT, camera, REF_1378X80);
+    let mut pipeline: Pipeline =
+        Pipeline::new(Config::DEFAULT, camera, imade_tests::reference_model());
     let mut sg = ShapeGuided::new();
     let mut rng = Rng(1378);
     let mut outcomes = Vec::new();
@@ -528,13 +528,9 @@ fn run_loop(method: Option<GuidedMethod>, range_use: RangeUse) -> Vec<LoopFrame>
         },
         ..Config::DEFAULT
     };
-    let table = Table::parse_for(
-        include_bytes!("../fixtures/lut/ref-1378x80.lut"),
-        &REF_1378X80,
-    )
-    .expect("bundled table");
+    let table = imade_tests::bundled_table();
     let mut pipeline: Box<Pipeline> =
-        Box::new(Pipeline::new(config, camera, REF_1378X80).with_table(table));
+        Box::new(Pipeline::new(config, camera, imade_tests::reference_model()).with_table(table));
     let mut frames = Vec::new();
     for row in clip.frames.iter().map(|r| r.as_ref().expect("valid row")) {
         let image = load_chip(&clip.path_of(&row.chip)).expect("chip");

@@ -2,8 +2,7 @@
 //! the table issue (medians per 1 km), and the refined pose no worse than the closed form's
 //! where the closed form is weakest (unknown range).
 
-use imade_core::lut::table::Table;
-use imade_core::{Config, FrameInput, Pipeline, RangeUse, Status, built_in_model};
+use imade_core::{Config, FrameInput, Pipeline, RangeUse, Status};
 use imade_host::clip;
 use imade_tests::pose_errors;
 use std::path::Path;
@@ -14,16 +13,15 @@ type Errors = [f64; 6];
 fn run(table: bool, range: RangeUse) -> Vec<Errors> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/table1-test");
     let meta = clip::read_meta(&dir.join("clip.json")).unwrap();
-    let model = built_in_model(&meta.projectile).unwrap();
+    let model = imade_host::model::for_clip(&meta.projectile, None).unwrap();
     let camera = meta.camera.camera();
     let config = Config {
         range_use: range,
         ..Config::DEFAULT
     };
-    let pipeline: Pipeline = Pipeline::new(config, camera, *model);
+    let pipeline: Pipeline = Pipeline::new(config, camera, model);
     let mut pipeline = Box::new(if table {
-        let bytes = include_bytes!("../fixtures/lut/ref-1378x80.lut");
-        pipeline.with_table(Table::parse_for(bytes, model).unwrap())
+        pipeline.with_table(model.table().unwrap())
     } else {
         pipeline
     });

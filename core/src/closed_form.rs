@@ -12,7 +12,7 @@
 //!
 //! The measured ends are first corrected with the model: the nose tip for the ogive's curvature
 //! ([`ProjectileModel::nose_ramp_zero_offset_m`]) and the tail edge for the base, whose
-//! foreshortened disc reaches `R |cos(aspect)|` beyond the base centre (its half-width point
+//! foreshortened disc (of the base radius R_b) reaches `R_b |cos(aspect)|` beyond the base centre (its half-width point
 //! at `0.866 R |cos(aspect)|`).
 
 use crate::camera::{Camera, line_of_sight_frame};
@@ -138,7 +138,7 @@ pub fn corrected_ends(
 ) -> (f32, f32) {
     (
         sil.nose_t + sil.nose_ramp_offset_m * sin_a * px_per_m,
-        sil.tail_t + DISC_HALF_WIDTH_REACH * model.radius_m() * cos_a * px_per_m,
+        sil.tail_t + DISC_HALF_WIDTH_REACH * model.base_radius_m() * cos_a * px_per_m,
     )
 }
 

@@ -25,6 +25,7 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod bytes;
 pub mod camera;
 pub mod capacity;
 pub mod chip;
@@ -55,7 +56,7 @@ pub use config::{
 pub use extremes::Silhouette;
 pub use frame::{FrameError, FrameInput, FrameResult, ResultFault, Status};
 pub use mask::{BitMask, ChipMask};
-pub use model::{ProjectileModel, REF_1378X80, built_in_model};
+pub use model::{Fins, ModelError, ProjectileModel};
 pub use pipeline::Pipeline;
 pub use point::ImagePoint;
 pub use pose::Pose;

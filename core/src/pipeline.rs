@@ -46,7 +46,7 @@ pub struct Pipeline<
 > {
     config: Config,
     camera: Camera,
-    model: ProjectileModel,
+    model: ProjectileModel<'static>,
     detect: Segmenter<MAX_RUNS, MAX_LABELS, MASK_WORDS>,
     table_match: TableMatch<MASK_WORDS>,
     temporal: Temporal,
@@ -56,7 +56,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
     Pipeline<MAX_RUNS, MAX_LABELS, MASK_WORDS>
 {
     /// A pipeline for one camera and projectile.
-    pub const fn new(config: Config, camera: Camera, model: ProjectileModel) -> Self {
+    pub const fn new(config: Config, camera: Camera, model: ProjectileModel<'static>) -> Self {
         Pipeline {
             config,
             camera,
@@ -67,8 +67,9 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         }
     }
 
-    /// The pipeline matching its poses against `table` (validated by [`Table::parse_for`] for
-    /// this pipeline's model), and drawing the shape prior.
+    /// The pipeline matching its poses against `table` (one built for this pipeline's model, as
+    /// [`ProjectileModel::matches_table`] checks: the table its model file carries), and drawing
+    /// the shape prior.
     pub const fn with_table(mut self, table: Table<'static>) -> Self {
         self.set_table(table);
         self

@@ -16,9 +16,9 @@
 
 mod host_io;
 mod icount;
+mod models;
 mod outputs;
 mod stack;
-mod tables;
 
 // The critical-section implementation (single core) that defmt's logger needs.
 use cortex_m as _;
@@ -28,8 +28,10 @@ use defmt_semihosting as _;
 use host_io::{Args, IoError};
 use icount::InstructionCounter;
 use imade_core::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS, mask_words};
-use imade_core::lut::table::{Table, TableError};
-use imade_core::{Config, FrameInput, FrameResult, MatchConfig, Pipeline, ProjectileModel};
+use imade_core::lut::table::Table;
+use imade_core::{
+    Config, FrameInput, FrameResult, MatchConfig, ModelError, Pipeline, ProjectileModel,
+};
 use imade_pack::{ReadError, TableUse};
 use outputs::{OutputError, Outputs};
 use static_cell::ConstStaticCell;
@@ -59,12 +61,12 @@ enum Error {
     Io(IoError),
     /// The packed clip could not be read.
     Read(ReadError<IoError>),
-    /// The clip's projectile is not a built-in model.
+    /// The clip's projectile is not one of the bundled models.
     UnknownProjectile,
-    /// The clip asks for the bundled table, and the firmware has none for its projectile.
+    /// The clip asks for the bundled table, and its projectile's model file carries none.
     NoBundledTable,
-    /// The bundled table does not validate.
-    Table(TableError),
+    /// The bundled model file does not validate.
+    Model(ModelError),
     /// A frame could not be reported.
     Output(OutputError),
     /// The chip buffer or the core peripherals were taken twice.
@@ -129,8 +131,10 @@ fn run() -> Result<(), Error> {
         header.table,
         stack::region_bytes()
     );
-    let model = header.model().ok_or(Error::UnknownProjectile)?;
-    let table = table(header.table, model)?;
+    let model = models::bundled(header.projectile.as_str())
+        .ok_or(Error::UnknownProjectile)?
+        .map_err(Error::Model)?;
+    let table = table(header.table, &model)?;
     let chip = CHIP.try_take().ok_or(Error::Taken)?;
     // The pipeline lives in this stack frame, built in place (docs/firmware.md: a static one
     // would be built on the stack and copied, or cost its initial image in flash). It draws no
@@ -143,7 +147,7 @@ fn run() -> Result<(), Error> {
         },
         ..defaults
     };
-    let mut pipeline = FirmwarePipeline::new(config, header.camera, *model);
+    let mut pipeline = FirmwarePipeline::new(config, header.camera, model);
     // In place: moving the pipeline into `with_table` and back cost 80 KB of stack.
     if let Some(table) = table {
         pipeline.set_table(table);
@@ -174,13 +178,13 @@ fn run() -> Result<(), Error> {
 }
 
 /// The silhouette table the clip asks for.
-fn table(choice: TableUse, model: &ProjectileModel) -> Result<Option<Table<'static>>, Error> {
+fn table(
+    choice: TableUse,
+    model: &ProjectileModel<'static>,
+) -> Result<Option<Table<'static>>, Error> {
     match choice {
         TableUse::None => Ok(None),
-        TableUse::Bundled => tables::bundled(model)
-            .ok_or(Error::NoBundledTable)?
-            .map(Some)
-            .map_err(Error::Table),
+        TableUse::Bundled => model.table().map(Some).ok_or(Error::NoBundledTable),
     }
 }
 

@@ -4,7 +4,9 @@
 //! - [`demo`]: `imade demo`, the main job: the Table 1 test clip run, scored and plotted.
 //! - [`eval`]: `imade eval`, results against ground truth beside the paper's figures.
 //! - [`exit`]: the binary's exit codes.
-//! - [`lut`]: `imade lut`, the silhouette tables of the core's table match.
+//! - [`lut`]: the silhouette tables of the core's table match, built from a model or a mesh.
+//! - [`model`]: `imade model` (also `imade lut`), model files: the projectile's geometry and
+//!   table, from the built-in reference or the user's mesh ([`mesh_model`]).
 //! - [`run`]: `imade run`, the core's pipeline over clips; [`summary`] its JSON summary, [`stages`]
 //!   the segmentation stages whose masks it saves.
 //! - [`plot`]: `imade plot`, figures like the paper's.
@@ -16,6 +18,8 @@ pub mod demo;
 pub mod eval;
 pub mod exit;
 pub mod lut;
+pub mod mesh_model;
+pub mod model;
 pub mod pack;
 pub mod plot;
 pub mod run;

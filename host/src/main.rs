@@ -23,8 +23,10 @@ enum Command {
     Eval(imade_host::eval::EvalArgs),
     /// Draw figures like the paper's from results files (PNG).
     Plot(imade_host::plot::PlotArgs),
-    /// Build silhouette tables for the table match.
-    Lut(imade_host::lut::LutArgs),
+    /// Build model files (imade-model/1): the projectile's geometry and silhouette table.
+    Model(imade_host::model::command::ModelArgs),
+    /// The same as `model` (kept for scripts that build tables).
+    Lut(imade_host::model::command::ModelArgs),
     /// Render a deterministic simulated clip (imade-clip/1) with ground truth.
     Simulate(imade_host::sim::SimulateArgs),
     /// Pack a clip for the firmware under QEMU (imade-pack/1, see firmware-sim/).
@@ -38,7 +40,7 @@ fn main() -> std::process::ExitCode {
         Command::Demo(args) => imade_host::demo::run(&args),
         Command::Eval(args) => imade_host::eval::run(&args),
         Command::Plot(args) => imade_host::plot::run(&args),
-        Command::Lut(args) => imade_host::lut::run(&args),
+        Command::Model(args) | Command::Lut(args) => imade_host::model::command::run(&args),
         Command::Simulate(args) => imade_host::sim::run(&args),
         Command::Pack(args) => imade_host::pack::run(&args),
     };

@@ -51,11 +51,11 @@ pub fn pack_clip(dir: &Path, out: &Path, range: RangeArg, lut: &str) -> anyhow::
 /// The packed bytes of the clip in `dir`, and the number of records.
 pub fn pack_bytes(dir: &Path, range: RangeArg, lut: &str) -> anyhow::Result<(Vec<u8>, usize)> {
     let clip = Clip::open(dir)?;
-    let model = clip.model()?;
+    let model = clip.model(lut)?;
     let camera = clip.meta.camera.camera();
     let records = u32::try_from(clip.frames.len()).context("too many frames")?;
     let table = match lut {
-        "bundled" | "none" => match crate::lut::table_for(lut, model)? {
+        "bundled" | "none" => match crate::model::table_for(lut, &model) {
             Some(_) => TableUse::Bundled,
             None => TableUse::None,
         },

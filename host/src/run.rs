@@ -102,8 +102,9 @@ pub struct RunArgs {
     /// 8-bit, 0 or 255).
     #[arg(long)]
     pub save_masks: bool,
-    /// Silhouette table of the table match: `bundled` (`fixtures/lut/<projectile>.lut`), `none`
-    /// (closed form only), or a table file.
+    /// The projectile's model and silhouette table: `bundled` (`fixtures/models/<projectile>.model`),
+    /// `none` (the bundled model without its table: closed form only), or a model file
+    /// (`imade model build`) whose id is the clip's projectile.
     #[arg(long, default_value = "bundled")]
     pub lut: String,
     /// Shape-guided refinement of the table match: `none`, `sis-cut` or `gvf-asm` (needs a
@@ -251,9 +252,9 @@ pub fn run_jobs(jobs: &[Job]) -> RunSummary {
 
 /// The pipeline for a clip's camera and projectile.
 fn pipeline_for(clip: &Clip, config: Config, lut: &str) -> anyhow::Result<Box<Pipeline>> {
-    let model = clip.model()?;
-    let pipeline = Pipeline::new(config, clip.meta.camera.camera(), *model);
-    Ok(Box::new(match crate::lut::table_for(lut, model)? {
+    let model = clip.model(lut)?;
+    let pipeline = Pipeline::new(config, clip.meta.camera.camera(), model);
+    Ok(Box::new(match crate::model::table_for(lut, &model) {
         Some(table) => pipeline.with_table(table),
         None => pipeline,
     }))

@@ -22,7 +22,6 @@ use imade_core::lut::render::{Placement, View, draw};
 use imade_core::shape_guided::{ShapeGuided, ShapeGuidedConfig};
 use imade_core::{
     ChipMask, ChipView, Config, GuidedLoopConfig, GuidedMethod, ImagePoint, MatchConfig, Pipeline,
-    REF_1378X80,
 };
 use std::hint::black_box;
 use std::time::Duration;
@@ -52,7 +51,7 @@ fn silhouette(target: &mut ChipMask, ss: usize, origin: (f32, f32), scale: f32, 
     target
         .reset(SIDE * ss, SIDE * ss)
         .expect("fits the chip mask");
-    draw(target, &REF_1378X80, &view, &placement).expect("infallible");
+    draw(target, &imade_tests::reference_model(), &view, &placement).expect("infallible");
 }
 
 /// The chip (coverage-shaded, a 3-tap blur, deterministic noise of about 2 grey levels) and

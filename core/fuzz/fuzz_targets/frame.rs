@@ -9,17 +9,14 @@ use imade_core::lut::table::Table;
 use imade_core::mask::ChipMask;
 use imade_core::{
     BodyPolarity, Camera, Config, DetectConfig, FrameInput, GuidedLoopConfig, GuidedMethod,
-    MatchConfig, Pipeline, REF_1378X80, RangeUse, SilhouetteConfig, TemporalConfig,
+    MatchConfig, Pipeline, RangeUse, SilhouetteConfig, TemporalConfig,
 };
-use imade_core_fuzz::{oracle, synth};
+use imade_core_fuzz::{oracle, reference, synth};
 use libfuzzer_sys::fuzz_target;
 use std::sync::OnceLock;
 
 /// Frames per input.
 const MAX_FRAMES: usize = 4;
-
-/// The bundled table of the reference projectile.
-static TABLE_BYTES: &[u8] = include_bytes!("../../../fixtures/lut/ref-1378x80.lut");
 
 #[derive(Arbitrary, Debug)]
 struct Input {
@@ -213,7 +210,9 @@ fn config(spec: &ConfigSpec) -> Config {
 fn table() -> Table<'static> {
     static TABLE: OnceLock<Table<'static>> = OnceLock::new();
     *TABLE.get_or_init(|| {
-        Table::parse_for(TABLE_BYTES, &REF_1378X80).expect("the bundled table is valid")
+        reference()
+            .table()
+            .expect("the bundled model carries its table")
     })
 }
 
@@ -259,10 +258,10 @@ fuzz_target!(|input: Input| {
     let (camera, config) = (camera(&input.camera), config(&input.config));
     let table = input.table.is_multiple_of(4).then(table);
     if input.small {
-        let p = Pipeline::<64, 16>::new(config, camera, REF_1378X80);
+        let p = Pipeline::<64, 16>::new(config, camera, reference());
         run(Box::new(with_table(p, table)), &input);
     } else {
-        let p: Pipeline = Pipeline::new(config, camera, REF_1378X80);
+        let p: Pipeline = Pipeline::new(config, camera, reference());
         run(Box::new(with_table(p, table)), &input);
     }
 });

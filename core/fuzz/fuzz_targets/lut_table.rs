@@ -1,4 +1,4 @@
-//! The lookup-table parser and the table match behind it: `Table::parse` and `Table::parse_for`
+//! The lookup-table parser and the table match behind it: `Table::parse` (and the reference model's check of the table)
 //! on raw bytes, on tables assembled from fuzzer-chosen header fields and entries, and on the
 //! bundled table with bytes changed, the last two with their checksum made right so that the checks behind it are
 //! reached. A table that parses has every accessor read over its whole grid, and one that parses
@@ -17,7 +17,8 @@ use imade_core::mask::ChipMask;
 use imade_core::segment::Segmenter;
 use imade_core::segment::background::Background;
 use imade_core::table_match::{MatchConfig, MatchInput, pose};
-use imade_core::{BodyPolarity, Camera, Config, ImagePoint, REF_1378X80};
+use imade_core::{BodyPolarity, Camera, Config, ImagePoint};
+use imade_core_fuzz::reference;
 use imade_core_fuzz::synth::{self, ChipSpec, Raw, Shape};
 use imade_core_fuzz::table::{Header, build, read_all, with_checksum};
 use libfuzzer_sys::fuzz_target;
@@ -100,11 +101,11 @@ fn prepared() -> &'static Prepared {
         let background = segmenter.background().clone();
         let config = Config::DEFAULT.silhouette;
         let silhouette =
-            extremes::measure(&view, &background, &target, &REF_1378X80, None, &config)
+            extremes::measure(&view, &background, &target, &reference(), None, &config)
                 .expect("the projectile is measured");
         let range =
-            closed_form::range_from_diameter(&silhouette, &CAMERA, &REF_1378X80).expect("a range");
-        let closed = closed_form::solve(&silhouette, ORIGIN, &CAMERA, &REF_1378X80, range);
+            closed_form::range_from_diameter(&silhouette, &CAMERA, &reference()).expect("a range");
+        let closed = closed_form::solve(&silhouette, ORIGIN, &CAMERA, &reference(), range);
         Prepared {
             chip,
             background,
@@ -131,7 +132,7 @@ fn refine(table: &Table, range_m: Option<u16>) {
     let Ok(refined) = pose::match_pose(
         &frame,
         table,
-        &REF_1378X80,
+        &reference(),
         &CAMERA,
         &p.closed,
         range,
@@ -148,14 +149,16 @@ fn refine(table: &Table, range_m: Option<u16>) {
     for (i, j) in [(0, 0), (table.tilts(), table.rolls())] {
         let Ok(()) = render::draw_entry(&mut *prior, &table.entry(i, j), &refined.placement);
     }
-    let _ = refined.at_range(&CAMERA, &REF_1378X80, refined.range_m);
+    let _ = refined.at_range(&CAMERA, &reference(), refined.range_m);
 }
 
 fn check(bytes: &[u8], range_m: Option<u16>) {
     if let Ok(table) = Table::parse(bytes) {
         read_all(&table);
     }
-    if let Ok(table) = Table::parse_for(bytes, &REF_1378X80) {
+    if let Ok(table) = Table::parse(bytes)
+        && reference().matches_table(&table)
+    {
         refine(&table, range_m);
     }
 }

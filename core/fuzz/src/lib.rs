@@ -2,6 +2,16 @@
 //! the invariants every frame result must keep ([`oracle`]), and lookup tables assembled
 //! from fuzzer-chosen fields ([`table`]).
 
+use imade_core::ProjectileModel;
+
 pub mod oracle;
 pub mod synth;
 pub mod table;
+
+/// The bundled reference model file (with its silhouette table).
+pub static REFERENCE_BYTES: &[u8] = include_bytes!("../../../fixtures/models/ref-1378x80.model");
+
+/// The bundled reference projectile, validated.
+pub fn reference() -> ProjectileModel<'static> {
+    ProjectileModel::parse(REFERENCE_BYTES).expect("the bundled reference model is valid")
+}

@@ -7,7 +7,7 @@
 use arbitrary::Arbitrary;
 use imade_core::lut::render::{self, Placement, View};
 use imade_core::mask::ChipMask;
-use imade_core::{ChipError, ChipView, ImagePoint, REF_1378X80};
+use imade_core::{ChipError, ChipView, ImagePoint};
 
 /// Largest side drawn, px: beyond the core's 512 so that oversized chips are tried too.
 const MAX_SIDE: usize = 540;
@@ -280,7 +280,7 @@ fn draw_projectile(
     if scratch.reset(width, height).is_err() {
         return;
     }
-    let Ok(()) = render::draw(scratch, &REF_1378X80, view, placement);
+    let Ok(()) = render::draw(scratch, &crate::reference(), view, placement);
     for (y, row) in image.chunks_exact_mut(width.max(1)).enumerate() {
         for (x, v) in row.iter_mut().enumerate() {
             if scratch.get(x, y) {

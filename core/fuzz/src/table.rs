@@ -3,7 +3,6 @@
 //! through every accessor once parsed.
 
 use arbitrary::Arbitrary;
-use imade_core::REF_1378X80;
 use imade_core::lut::table::{CRC, HEADER_LEN, MAGIC, MODEL_ID_LEN, Table, VERSION, entry_len};
 
 /// The header fields of an assembled table; `None` fields take the valid value.
@@ -53,19 +52,19 @@ pub fn build(header: &Header, entries: &[u8]) -> Vec<u8> {
     let id = if header.other_model {
         "other"
     } else {
-        REF_1378X80.id
+        crate::reference().id()
     };
     let id = &id.as_bytes()[..id.len().min(MODEL_ID_LEN)];
     bytes[12..12 + id.len()].copy_from_slice(id);
     put32(
         &mut bytes,
         44,
-        header.diameter_m.unwrap_or(REF_1378X80.diameter_m),
+        header.diameter_m.unwrap_or(crate::reference().diameter_m),
     );
     put32(
         &mut bytes,
         48,
-        header.length_m.unwrap_or(REF_1378X80.length_m),
+        header.length_m.unwrap_or(crate::reference().length_m),
     );
     put16(&mut bytes, 52, tilts as u16);
     put16(&mut bytes, 54, rolls as u16);

@@ -206,7 +206,7 @@ pub fn measure(
         (None, None) => return Err(ExtremesError::NoCrossSection),
     };
     let d = section.diameter_px;
-    let band = 0.5 * d * model.fin_tip_radius_m / model.radius_m() + 2.0 * section.sigma_px + 1.0;
+    let band = 0.5 * d * model.max_radius_m() / model.radius_m() + 2.0 * section.sigma_px + 1.0;
     let reach = 1.3 * half_length + 4.0 * section.sigma_px + 8.0;
     let profile = WidthProfile::build(
         chip,

@@ -16,8 +16,6 @@ use embedded_graphics::pixelcolor::BinaryColor;
 use embedded_graphics::prelude::{DrawTarget, Point, Primitive};
 use embedded_graphics::primitives::{PrimitiveStyle, Triangle};
 
-/// Stations along the ogive, tip excluded.
-const NOSE_STATIONS: usize = 8;
 /// Vertices of a cross-section's ellipse.
 const ELLIPSE_VERTICES: usize = 16;
 /// The largest silhouette drawn, px along either axis (a guard against absurd placements).
@@ -100,23 +98,17 @@ fn project(view_sin_cos: (f32, f32), x: f32, r: f32, psi: f32) -> (f32, f32) {
 }
 
 /// Calls `f` with each triangle of the silhouette of `model` seen at `view`, in the silhouette
-/// frame (m).
+/// frame (m): the ellipse of every profile station's cross-section, the quads between
+/// consecutive stations, and each fin's planform.
 pub fn for_each_triangle(model: &ProjectileModel, view: &View, mut f: impl FnMut([(f32, f32); 3])) {
     let beta = view.tilt_deg * RAD;
     let sc = (libm::sinf(beta), libm::cosf(beta));
     let half = 0.5 * model.length_m;
-    // The body of revolution: stations from the tip (s = 0) to the base (s = L).
-    let station = |i: usize| -> (f32, f32) {
-        let s = if i <= NOSE_STATIONS {
-            model.nose_length_m * i as f32 / NOSE_STATIONS as f32
-        } else {
-            model.length_m
-        };
-        (half - s, model.radius_at(s.min(model.length_m)))
-    };
+    // The body of revolution: its profile's stations from the tip (s = 0) to the base (s = L).
     let mut previous: Option<(f32, f32)> = None;
-    for i in 0..=NOSE_STATIONS + 1 {
-        let (x, r) = station(i);
+    for i in 0..model.stations() {
+        let (s, r) = model.station(i);
+        let x = half - s;
         let centre = project(sc, x, 0.0, 0.0);
         // The ellipse of this cross-section, as a triangle fan.
         if r > 0.0 && sc.0 > 1e-4 {
@@ -138,17 +130,18 @@ pub fn for_each_triangle(model: &ProjectileModel, view: &View, mut f: impl FnMut
         }
         previous = Some((x, r));
     }
-    // The fins: trailing edges flush with the base.
-    let base = -half;
-    let (root, tip) = (model.fin_root_chord_m, model.fin_tip_chord_m);
-    let (r0, r1) = (model.radius_m(), model.fin_tip_radius_m);
-    for k in 0..model.fin_count {
-        let psi = view.roll_deg * RAD
-            + core::f32::consts::TAU * f32::from(k) / f32::from(model.fin_count);
-        let a = project(sc, base, r0, psi);
-        let b = project(sc, base + root, r0, psi);
-        let c = project(sc, base + tip, r1, psi);
-        let d = project(sc, base, r1, psi);
+    // The fins: root chord on the body, tip chord at the tip radius.
+    let Some(fins) = model.fins() else { return };
+    let (root_le, root_te) = fins.root_s;
+    let (tip_le, tip_te) = fins.tip_s;
+    let root_radius = |s: f32| model.radius_at(s);
+    for k in 0..fins.count {
+        let psi = (view.roll_deg + fins.first_roll_deg) * RAD
+            + core::f32::consts::TAU * f32::from(k) / f32::from(fins.count);
+        let a = project(sc, half - root_te, root_radius(root_te), psi);
+        let b = project(sc, half - root_le, root_radius(root_le), psi);
+        let c = project(sc, half - tip_le, fins.tip_radius_m, psi);
+        let d = project(sc, half - tip_te, fins.tip_radius_m, psi);
         f([a, b, c]);
         f([a, c, d]);
     }
@@ -174,7 +167,7 @@ pub fn draw<D: DrawTarget<Color = BinaryColor>>(
     view: &View,
     placement: &Placement,
 ) -> Result<(), D::Error> {
-    if !placement.is_sane(model.length_m.max(2.0 * model.fin_tip_radius_m)) {
+    if !placement.is_sane(model.length_m.max(2.0 * model.max_radius_m())) {
         return Ok(());
     }
     let mut result = Ok(());
@@ -217,13 +210,18 @@ mod tests {
     use super::*;
     use crate::lut::table::Table;
     use crate::mask::BitMask;
-    use crate::model::REF_1378X80;
+    use crate::model::testing::reference;
 
-    /// Broadside silhouette area of the reference model, m²: cylinder, ogive (by Simpson's rule
+    /// Broadside silhouette area of the reference projectile, m², from its dimensions in
+    /// `docs/projectile.md` (not from the model file): cylinder, tangent ogive (by Simpson's rule
     /// over its radius) and two fins in the image plane.
-    fn broadside_area(m: &ProjectileModel) -> f32 {
+    fn broadside_area() -> f32 {
+        let (length, radius, nose) = (1.378f32, 0.04f32, 0.24f32);
+        let (fin_tip_radius, root, tip) = (0.1f32, 0.12f32, 0.06f32);
+        let rho = (radius * radius + nose * nose) / (2.0 * radius);
+        let ogive_radius = |s: f32| libm::sqrtf(rho * rho - (nose - s) * (nose - s)) + radius - rho;
         let n = 200;
-        let h = m.nose_length_m / n as f32;
+        let h = nose / n as f32;
         let ogive: f32 = (0..=n)
             .map(|i| {
                 let w = if i == 0 || i == n {
@@ -233,16 +231,13 @@ mod tests {
                 } else {
                     2.0
                 };
-                w * 2.0 * m.radius_at(i as f32 * h)
+                w * 2.0 * ogive_radius(i as f32 * h)
             })
             .sum::<f32>()
             * h
             / 3.0;
-        let cylinder = (m.length_m - m.nose_length_m) * m.diameter_m;
-        let fins = 2.0
-            * (m.fin_tip_radius_m - m.radius_m())
-            * 0.5
-            * (m.fin_root_chord_m + m.fin_tip_chord_m);
+        let cylinder = (length - nose) * 2.0 * radius;
+        let fins = 2.0 * (fin_tip_radius - radius) * 0.5 * (root + tip);
         ogive + cylinder + fins
     }
 
@@ -265,10 +260,10 @@ mod tests {
     /// times the perimeter (about twice the length plus the fins' free edges).
     #[test]
     fn the_model_and_its_table_entry_draw_the_broadside_area() {
-        let m = REF_1378X80;
+        let m = reference();
         let px_per_m = 300.0;
-        let perimeter = 2.0 * m.length_m + 4.0 * (m.fin_tip_radius_m - m.radius_m());
-        let expected = broadside_area(&m) + 0.5 / px_per_m * perimeter;
+        let perimeter = 2.0 * m.length_m + 4.0 * (m.max_radius_m() - m.radius_m());
+        let expected = broadside_area() + 0.5 / px_per_m * perimeter;
         let view = View {
             tilt_deg: 0.0,
             roll_deg: 0.0,
@@ -299,7 +294,7 @@ mod tests {
         };
         for px_per_unit in [f32::NAN, f32::INFINITY, 1e9] {
             let area = drawn_area(
-                |t, p| draw(t, &REF_1378X80, &view, &p).unwrap(),
+                |t, p| draw(t, &reference(), &view, &p).unwrap(),
                 px_per_unit,
             );
             assert!(area == 0.0 || area.is_nan(), "{px_per_unit}: {area}");

@@ -35,7 +35,7 @@
 //! Station `s` of an entry lies at `u = u_lo + (u_hi - u_lo) s / (S - 1)`.
 
 use super::render::View;
-use crate::model::ProjectileModel;
+use crate::bytes::{checksum_ok, f32_at, text_at, u16_at};
 
 /// Tilt of index `i` of a grid of `tilts`, deg: `90 i / (tilts - 1)`.
 pub fn grid_tilt_deg(i: usize, tilts: usize) -> f32 {
@@ -61,7 +61,7 @@ pub const U_UNITS_PER_D: f32 = 1024.0;
 pub const MAX_STATIONS: usize = 256;
 
 /// The CRC of the table's trailer.
-pub const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+pub use crate::bytes::CRC;
 
 /// Why a table was refused.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -77,8 +77,6 @@ pub enum TableError {
     Grid,
     /// The checksum does not match.
     Checksum,
-    /// The table was built for another model.
-    Model,
 }
 
 /// A validated table borrowing its bytes.
@@ -91,20 +89,6 @@ pub struct Table<'a> {
     v_quantum: f32,
     diameter_m: f32,
     length_m: f32,
-}
-
-fn u16_at(b: &[u8], at: usize) -> u16 {
-    match b.get(at..at + 2) {
-        Some(&[x, y]) => u16::from_le_bytes([x, y]),
-        _ => 0,
-    }
-}
-
-fn f32_at(b: &[u8], at: usize) -> f32 {
-    match b.get(at..at + 4) {
-        Some(&[a, c, d, e]) => f32::from_le_bytes([a, c, d, e]),
-        _ => f32::NAN,
-    }
 }
 
 /// Bytes of one entry with `stations` stations.
@@ -157,35 +141,25 @@ impl<'a> Table<'a> {
         if expected != Some(bytes.len()) {
             return Err(TableError::Length);
         }
-        let body = bytes.len() - 4;
-        let stored = match bytes.get(body..) {
-            Some(&[a, b, c, d]) => u32::from_le_bytes([a, b, c, d]),
-            _ => return Err(TableError::Length),
-        };
-        if CRC.checksum(bytes.get(..body).unwrap_or(&[])) != stored {
+        if !checksum_ok(bytes) {
             return Err(TableError::Checksum);
         }
         Ok(table)
     }
 
-    /// Validates the table and checks it was built for `model` (id and dimensions).
-    pub fn parse_for(bytes: &'a [u8], model: &ProjectileModel) -> Result<Table<'a>, TableError> {
-        let table = Table::parse(bytes)?;
-        let same = table.model_id() == model.id
-            && libm::fabsf(table.diameter_m - model.diameter_m) <= 1e-6
-            && libm::fabsf(table.length_m - model.length_m) <= 1e-6;
-        if same {
-            Ok(table)
-        } else {
-            Err(TableError::Model)
-        }
+    /// Body diameter `D` of the model the table was built for, m.
+    pub fn diameter_m(&self) -> f32 {
+        self.diameter_m
+    }
+
+    /// Overall length of the model the table was built for, m.
+    pub fn length_m(&self) -> f32 {
+        self.length_m
     }
 
     /// The model id the table was built for.
     pub fn model_id(&self) -> &'a str {
-        let field = self.bytes.get(12..12 + MODEL_ID_LEN).unwrap_or(&[]);
-        let end = field.iter().position(|&b| b == 0).unwrap_or(field.len());
-        core::str::from_utf8(field.get(..end).unwrap_or(&[])).unwrap_or("")
+        text_at(self.bytes, 12, MODEL_ID_LEN)
     }
 
     /// Number of tilts.
@@ -307,14 +281,15 @@ impl Entry<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::REF_1378X80;
+    use crate::model::testing::reference;
 
     /// The bundled table, built by `imade lut build --model ref-1378x80`.
     static BUNDLED: &[u8] = include_bytes!("../../../fixtures/lut/ref-1378x80.lut");
 
     #[test]
     fn the_bundled_table_parses_for_its_model() {
-        let t = Table::parse_for(BUNDLED, &REF_1378X80).unwrap();
+        let t = Table::parse(BUNDLED).unwrap();
+        assert!(reference().matches_table(&t));
         assert_eq!(t.model_id(), "ref-1378x80");
         assert_eq!((t.tilts(), t.rolls(), t.stations()), (91, 18, 96));
         assert!(BUNDLED.len() <= 512 * 1024, "the table budget is 512 KiB");
@@ -324,7 +299,7 @@ mod tests {
     fn broadside_entry_has_the_models_dimensions() {
         let t = Table::parse(BUNDLED).unwrap();
         let e = t.entry(0, 0);
-        let half = 0.5 * REF_1378X80.length_m / REF_1378X80.diameter_m;
+        let half = 0.5 * reference().length_m / reference().diameter_m;
         let (lo, hi) = e.u_range();
         assert!(
             (lo + half).abs() < 2e-3 && (hi - half).abs() < 2e-3,
@@ -337,7 +312,7 @@ mod tests {
             "{v0} {v1}"
         );
         // At roll 0 two fins lie in the image plane: their tips 1.25 D from the axis.
-        let tip = REF_1378X80.fin_tip_radius_m / REF_1378X80.diameter_m;
+        let tip = reference().max_radius_m() / reference().diameter_m;
         let (f0, f1) = e.edges_at(-half + 0.5);
         assert!(
             (f0 + tip).abs() < 0.03 && (f1 - tip).abs() < 0.03,
@@ -370,13 +345,5 @@ mod tests {
         assert_eq!(Table::parse(table).err(), Some(TableError::Grid));
         table[52] = 91;
         assert!(Table::parse(table).is_ok());
-        let other = ProjectileModel {
-            id: "other",
-            ..REF_1378X80
-        };
-        assert_eq!(
-            Table::parse_for(table, &other).err(),
-            Some(TableError::Model)
-        );
     }
 }

@@ -270,7 +270,7 @@ mod tests {
     use super::*;
     use crate::extremes::SilhouetteConfig;
     use crate::lut::render::{Placement, View};
-    use crate::model::REF_1378X80;
+    use crate::model::testing::reference;
     use crate::point::ImagePoint;
     use crate::table_match::search::Match;
     use crate::table_match::section::LambertSection;
@@ -293,7 +293,7 @@ mod tests {
             nose_t: 60.0,
             nose_ramp_offset_m: {
                 let (low, high) = SilhouetteConfig::DEFAULT.nose_ramp;
-                REF_1378X80.nose_ramp_zero_offset_m(low, high)
+                reference().nose_ramp_zero_offset_m(low, high)
             },
             tail_t: -64.0,
             diameter_px: 8.0,
@@ -344,7 +344,7 @@ mod tests {
         let transform = Affine2::about(Vector2::zeros(), nalgebra::Matrix2::identity(), shift);
         let sil = silhouette();
         let first = matched(20.0, 1.0, 0.0);
-        let moved = moved_input(&sil, &first, &transform, ORIGIN, &CAMERA, &REF_1378X80)
+        let moved = moved_input(&sil, &first, &transform, ORIGIN, &CAMERA, &reference())
             .expect("a finite move");
         let m = moved.silhouette;
         assert!((m.axis.dir.x - 1.0).abs() < 1e-6 && m.axis.dir.y.abs() < 1e-6);
@@ -352,10 +352,10 @@ mod tests {
         assert_eq!(m.diameter_px, sil.diameter_px);
         // What the table match will take as the measured ends: the matched ends, moved.
         let aspect = moved.closed.aspect_deg * RAD;
-        let px_per_m = first.section.diameter_px / REF_1378X80.diameter_m;
+        let px_per_m = first.section.diameter_px / reference().diameter_m;
         let (nose, tail) = closed_form::corrected_ends(
             &m,
-            &REF_1378X80,
+            &reference(),
             libm::sinf(aspect),
             libm::cosf(aspect),
             px_per_m,
@@ -378,7 +378,7 @@ mod tests {
             &transform,
             ORIGIN,
             &CAMERA,
-            &REF_1378X80,
+            &reference(),
         );
         assert_eq!(moved, None);
     }

@@ -216,13 +216,13 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
         }
     }
 
-    /// The stage matching against `table` (validated by [`Table::parse_for`] for the model).
+    /// The stage matching against `table` (one built for the model: [`ProjectileModel::matches_table`]).
     pub const fn with_table(mut self, table: Table<'static>) -> Self {
         self.set_table(table);
         self
     }
 
-    /// Matches against `table` from now on (validated by [`Table::parse_for`] for the model);
+    /// Matches against `table` from now on (one built for the model);
     /// in place, so that a stage inside a large pipeline is not moved.
     pub const fn set_table(&mut self, table: Table<'static>) {
         self.table = Some(table);

@@ -90,7 +90,7 @@ pub fn match_pose(
     let across = axis.dir.perpendicular().into();
     let d_px = section.diameter_px;
     let reach = libm::fabsf(sil.nose_t).max(libm::fabsf(sil.tail_t)) + 4.0 * sigma + 6.0;
-    let band = 0.5 * d_px * model.fin_tip_radius_m / model.radius_m() + 3.0 * sigma + 1.5;
+    let band = 0.5 * d_px * model.max_radius_m() / model.radius_m() + 3.0 * sigma + 1.5;
     let profile = WidthProfile::build(
         frame.chip,
         frame.background,
@@ -116,6 +116,7 @@ pub fn match_pose(
         ends_t,
         end_weight: config.end_weight,
         half_length_d: 0.5 * model.length_m / model.diameter_m,
+        max_roll_deg: model.distinct_roll_deg(),
     };
     let px_per_d_known = range_m.map(|r| {
         model.diameter_m / (r * camera.normalized_length(1.0, across)).max(f32::MIN_POSITIVE)
@@ -187,8 +188,9 @@ fn cylinder_section(
     let sil = frame.silhouette;
     let length = sil.nose_t - sil.tail_t;
     let margin = config.cylinder_margin;
-    let t0 = sil.tail_t + length * (model.fin_root_chord_m / model.length_m + margin);
-    let t1 = sil.nose_t - length * (model.nose_length_m / model.length_m + margin);
+    let (start_s, end_s) = model.cylinder_s();
+    let t0 = sil.tail_t + length * ((model.length_m - end_s) / model.length_m + margin);
+    let t1 = sil.nose_t - length * (start_s / model.length_m + margin);
     if t1 - t0 < config.min_cylinder_px || t1.is_nan() || t0.is_nan() {
         return Err(MatchError::NoSection);
     }

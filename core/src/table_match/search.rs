@@ -72,6 +72,8 @@ pub struct Measured<'p> {
     pub end_weight: f32,
     /// Half the body's length over its diameter.
     pub half_length_d: f32,
+    /// The rolls that look different, from 0 to this, deg ([`crate::model::ProjectileModel::distinct_roll_deg`]).
+    pub max_roll_deg: f32,
 }
 
 /// The scale and position of an entry on the profile.
@@ -250,9 +252,9 @@ impl Measured<'_> {
     }
 }
 
-/// Rolls of the table folded to `[0, 45]` deg: the indices searched.
-fn folded_rolls<'t>(table: &'t Table<'t>) -> impl Iterator<Item = usize> + 't {
-    (0..table.rolls()).filter(|&j| table.roll_deg(j) <= 45.0 + 1e-3)
+/// The table's rolls up to `max_roll_deg`: the indices searched.
+fn folded_rolls<'t>(table: &'t Table<'t>, max_roll_deg: f32) -> impl Iterator<Item = usize> + 't {
+    (0..table.rolls()).filter(move |&j| table.roll_deg(j) <= max_roll_deg + 1e-3)
 }
 
 /// Searches `table` for the entry that best explains `measured`, starting from the closed form's
@@ -262,7 +264,10 @@ pub fn search(table: &Table, measured: &Measured, tilt_deg: f32, start: Fit) -> 
     let centre = table.tilt_index(tilt_deg);
     let lo = centre.saturating_sub(TILT_REACH);
     let hi = (centre + TILT_REACH).min(table.tilts() - 1);
-    let mid_roll = folded_rolls(table).last().unwrap_or(0) / 2;
+    let mid_roll = folded_rolls(table, measured.max_roll_deg)
+        .last()
+        .unwrap_or(0)
+        / 2;
     let fit_at = |i: usize, j: usize, from: Fit| {
         let cos_tilt = libm::cosf(table.tilt_deg(i) * crate::pose::RAD);
         measured.fit(&table.entry(i, j), cos_tilt, from)
@@ -289,7 +294,7 @@ pub fn search(table: &Table, measured: &Measured, tilt_deg: f32, start: Fit) -> 
     // 2. Rolls at that tilt.
     let mut worst_cost = 0.0f32;
     let mut best_roll = (mid_roll, fit);
-    for j in folded_rolls(table) {
+    for j in folded_rolls(table, measured.max_roll_deg) {
         let f = fit_at(tilt, j, fit);
         worst_cost = worst_cost.max(f.cost);
         if f.cost < best_roll.1.cost {
@@ -344,7 +349,7 @@ mod tests {
     use crate::chip::ChipView;
     use crate::config::BodyPolarity;
     use crate::extremes::Axis;
-    use crate::model::REF_1378X80;
+    use crate::model::testing::reference;
     use crate::point::ImagePoint;
     use crate::segment::background::Background;
 
@@ -381,7 +386,7 @@ mod tests {
     /// not positive keeps the start, with a NaN cost.
     #[test]
     fn an_entry_is_placed_on_its_own_profile() {
-        let table = Table::parse_for(BUNDLED, &REF_1378X80).unwrap();
+        let table = Table::parse(BUNDLED).unwrap();
         let entry = table.entry(0, 0);
         let (k, t0) = (6.0, 1.3);
         let data = render(&entry, k, t0);
@@ -399,7 +404,7 @@ mod tests {
             70.0,
             20.0,
         );
-        let half_length_d = 0.5 * REF_1378X80.length_m / REF_1378X80.diameter_m;
+        let half_length_d = 0.5 * reference().length_m / reference().diameter_m;
         let (nose, tail) = (t0 + k * half_length_d, t0 - k * half_length_d);
         let measured = Measured {
             profile: &profile,
@@ -409,6 +414,7 @@ mod tests {
             ends_t: (nose, tail),
             end_weight: 10.0,
             half_length_d,
+            max_roll_deg: 45.0,
         };
         let start = |px_per_d: f32, origin_t: f32| Fit {
             px_per_d,

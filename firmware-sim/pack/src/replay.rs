@@ -3,9 +3,7 @@
 
 use crate::format::{ChipFrame, Header, Record, SampleDepth};
 use core::fmt;
-use imade_core::{
-    ChipError, ChipView, Config, FrameInput, FrameResult, ProjectileModel, built_in_model, results,
-};
+use imade_core::{ChipError, ChipView, Config, FrameInput, FrameResult, results};
 
 impl Header {
     /// The pipeline configuration: the defaults with the header's range use.
@@ -14,11 +12,6 @@ impl Header {
             range_use: self.range_use,
             ..Config::DEFAULT
         }
-    }
-
-    /// The projectile's built-in model, if the core knows the id.
-    pub fn model(&self) -> Option<&'static ProjectileModel> {
-        built_in_model(&self.projectile)
     }
 }
 

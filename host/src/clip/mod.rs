@@ -25,7 +25,7 @@ pub use results::{ResultRow, read_results};
 pub use writer::{ClipWriter, write_atomically};
 
 use anyhow::Context;
-use imade_core::{ProjectileModel, built_in_model};
+use imade_core::ProjectileModel;
 use std::path::{Path, PathBuf};
 
 /// An opened clip: its folder, metadata and frame rows (each row parsed or its error).
@@ -53,16 +53,13 @@ impl Clip {
         })
     }
 
-    /// The core's built-in model of the clip's projectile; an unknown id is an error naming
-    /// `clip.json`.
-    pub fn model(&self) -> anyhow::Result<&'static ProjectileModel> {
-        built_in_model(&self.meta.projectile).with_context(|| {
-            format!(
-                "{}: unknown projectile {:?}",
-                self.dir.join("clip.json").display(),
-                self.meta.projectile
-            )
-        })
+    /// The model of the clip's projectile for the table choice `lut` (`--lut`): a model file's
+    /// path, whose id must be the clip's, or `bundled` / `none` for the bundled model of that
+    /// id. An unknown id or a mismatch is an error naming `clip.json`.
+    pub fn model(&self, lut: &str) -> anyhow::Result<ProjectileModel<'static>> {
+        let file = (!matches!(lut, "bundled" | "none")).then(|| Path::new(lut));
+        crate::model::for_clip(&self.meta.projectile, file)
+            .with_context(|| format!("{}", self.dir.join("clip.json").display()))
     }
 
     /// The file named by `relative` (a path read from the clip), resolved inside the clip folder;

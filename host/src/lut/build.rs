@@ -35,7 +35,7 @@ pub struct Grid {
 /// What the table is built from.
 pub enum Source<'a> {
     /// A built-in parametric model.
-    Model(&'a ProjectileModel),
+    Model(&'a ProjectileModel<'a>),
     /// A mesh in the body frame (x_B towards the nose), m.
     Mesh {
         /// Model id written into the table.
@@ -50,7 +50,7 @@ pub enum Source<'a> {
 impl Source<'_> {
     fn id(&self) -> &str {
         match self {
-            Source::Model(m) => m.id,
+            Source::Model(m) => m.id(),
             Source::Mesh { id, .. } => id,
         }
     }
@@ -83,7 +83,7 @@ impl Source<'_> {
     /// The largest distance of the body from its axis, m.
     fn max_radius_m(&self) -> f32 {
         match self {
-            Source::Model(m) => m.fin_tip_radius_m.max(m.radius_m()),
+            Source::Model(m) => m.max_radius_m(),
             Source::Mesh { mesh, .. } => mesh
                 .vertices
                 .iter()

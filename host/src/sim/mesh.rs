@@ -66,8 +66,7 @@ impl Mesh {
         Ok(())
     }
 
-    /// The mesh as Wavefront OBJ text (used to test the loader against the built-in mesh).
-    #[cfg(test)]
+    /// The mesh as Wavefront OBJ text (the tests write the built-in shapes' meshes with it).
     pub fn to_obj(&self) -> String {
         use std::fmt::Write;
         let mut text = String::new();

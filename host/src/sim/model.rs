@@ -243,17 +243,24 @@ mod tests {
         assert!((m.ogive_rho() - 0.740).abs() < 1e-12);
         assert!(m.radius_at(0.0).abs() < 1e-12);
         assert!((m.radius_at(m.nose_length) - m.radius).abs() < 1e-12);
-        // Independent check against the core's table of the same model (data only, no code).
-        let core = imade_core::model::REF_1378X80;
-        assert_eq!(core.id, REFERENCE_ID);
+        // Independent check against the bundled model file of the same projectile (data only).
+        let core = crate::model::load(&crate::model::bundled_dir().join("ref-1378x80.model"))
+            .expect("the bundled reference model");
+        assert_eq!(core.id(), REFERENCE_ID);
         assert!((f64::from(core.length_m) - m.length).abs() < 1e-6);
         assert!((f64::from(core.diameter_m) - 2.0 * m.radius).abs() < 1e-6);
-        assert!((f64::from(core.nose_length_m) - m.nose_length).abs() < 1e-6);
-        assert!((f64::from(core.fin_tip_radius_m) - m.fin_tip_radius).abs() < 1e-6);
-        assert!((f64::from(core.fin_root_chord_m) - m.fin_root_chord).abs() < 1e-6);
-        assert!((f64::from(core.fin_tip_chord_m) - m.fin_tip_chord).abs() < 1e-6);
-        assert!((f64::from(core.fin_thickness_m) - m.fin_thickness).abs() < 1e-6);
-        assert_eq!(u32::from(core.fin_count), m.fin_count);
+        let (shoulder, _) = core.cylinder_s();
+        assert!((f64::from(shoulder) - m.nose_length).abs() < 1e-6);
+        for s in [0.03, 0.12, 0.2, 0.6, 1.3] {
+            let r = f64::from(core.radius_at(s as f32));
+            assert!((r - m.radius_at(s)).abs() < 2e-5, "radius at {s}: {r}");
+        }
+        let fins = core.fins().expect("fins");
+        assert!((f64::from(fins.tip_radius_m) - m.fin_tip_radius).abs() < 1e-6);
+        assert!((f64::from(fins.root_s.1 - fins.root_s.0) - m.fin_root_chord).abs() < 1e-6);
+        assert!((f64::from(fins.tip_s.1 - fins.tip_s.0) - m.fin_tip_chord).abs() < 1e-6);
+        assert!((f64::from(fins.thickness_m) - m.fin_thickness).abs() < 1e-6);
+        assert_eq!(u32::from(fins.count), m.fin_count);
     }
 
     #[test]

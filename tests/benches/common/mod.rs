@@ -5,7 +5,7 @@
 pub mod cpu;
 
 use imade_core::lut::table::Table;
-use imade_core::{Camera, ChipView, FrameInput, ProjectileModel, built_in_model};
+use imade_core::{Camera, ChipView, FrameInput, ProjectileModel};
 use imade_host::clip::{ChipImage, Clip, ClipMeta, load_chip};
 use std::path::PathBuf;
 
@@ -46,7 +46,7 @@ pub struct Fixture {
     /// Camera intrinsics.
     pub camera: Camera,
     /// The projectile.
-    pub model: ProjectileModel,
+    pub model: ProjectileModel<'static>,
     /// The projectile's bundled silhouette table, where there is one.
     pub table: Option<Table<'static>>,
     /// Every frame, in clip order.
@@ -66,8 +66,8 @@ pub fn load() -> Fixture {
     let dir = clip_dir();
     let clip = Clip::open(&dir).unwrap_or_else(|e| panic!("{}: {e:#}", dir.display()));
     let camera = clip.meta.camera.camera();
-    let model = *built_in_model(&clip.meta.projectile).expect("a built-in projectile");
-    let table = imade_host::lut::table_for("bundled", &model).unwrap_or_else(|e| panic!("{e:#}"));
+    let model = clip.model("bundled").unwrap_or_else(|e| panic!("{e:#}"));
+    let table = model.table();
     let frames = clip
         .frames
         .iter()

@@ -1,0 +1,131 @@
+//! Any projectile, end to end: a mesh becomes a model file (`imade model build --mesh`: profile
+//! and fins derived from the mesh, silhouette table built from it), and `imade run --lut FILE`
+//! estimates a clip with it. The mesh here is the reference projectile's tessellation, so its
+//! run is compared with the run of the bundled model, which was made from the analytic shape.
+
+use imade_host::eval::paper::Parameter;
+use imade_host::model::command::BuildArgs;
+use imade_host::run::{RangeArg, RefineChoice, RunArgs, run};
+use imade_host::sim::model::REF_1378X80;
+use std::path::{Path, PathBuf};
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../fixtures")
+        .join(name)
+}
+
+/// Median errors per km of a run of `clip` with the model choice `lut`: Tx, Tz (m/km), pitch,
+/// best yaw (deg/km), and the frames with a pose.
+fn medians(clip: &Path, lut: &str, range: RangeArg, out: &Path) -> ([f64; 4], usize) {
+    run(&RunArgs {
+        clips: vec![clip.to_path_buf()],
+        out: out.to_path_buf(),
+        range,
+        save_masks: false,
+        lut: lut.to_owned(),
+        refine: RefineChoice(None),
+    })
+    .expect("the run succeeds");
+    let evaluation =
+        imade_host::eval::evaluate(clip, &out.join("results.csv")).expect("the evaluation");
+    let median = |p: Parameter| {
+        evaluation
+            .pose
+            .parameters
+            .iter()
+            .find(|e| e.parameter == p)
+            .and_then(|e| e.stats)
+            .map_or(f64::NAN, |s| s.median)
+    };
+    (
+        [
+            median(Parameter::Tx),
+            median(Parameter::Tz),
+            median(Parameter::Pitch),
+            median(Parameter::YawBest),
+        ],
+        evaluation.pose.frames_with_pose,
+    )
+}
+
+#[test]
+fn a_model_built_from_a_mesh_runs_a_clip_like_the_bundled_one() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("any-projectile");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let mesh = dir.join("ref-1378x80.obj");
+    std::fs::write(&mesh, REF_1378X80.tessellate().to_obj()).unwrap();
+    let model = dir.join("ref-1378x80.model");
+    let args = BuildArgs {
+        model: None,
+        mesh: Some(mesh),
+        mesh_scale: 1.0,
+        diameter: Some(0.08),
+        id: Some("ref-1378x80".into()),
+        table: None,
+        no_table: false,
+        tilts: 91,
+        rolls: 18,
+        stations: 96,
+        out: model.clone(),
+    };
+    imade_host::model::command::build_command(&args).expect("the model builds from the mesh");
+    for (clip, range) in [
+        ("small-known-range", RangeArg::Auto),
+        ("small-unknown-range", RangeArg::Ignore),
+    ] {
+        let clip = fixture(clip);
+        let (bundled, bundled_poses) = medians(&clip, "bundled", range, &dir.join("bundled"));
+        let (meshed, meshed_poses) =
+            medians(&clip, model.to_str().unwrap(), range, &dir.join("meshed"));
+        println!(
+            "{}: bundled model Tx {:.4} Tz {:.2} m/km pitch {:.3} yaw {:.2} deg/km ({bundled_poses} poses); \
+             from the mesh Tx {:.4} Tz {:.2} m/km pitch {:.3} yaw {:.2} deg/km ({meshed_poses} poses)",
+            clip.display(),
+            bundled[0],
+            bundled[1],
+            bundled[2],
+            bundled[3],
+            meshed[0],
+            meshed[1],
+            meshed[2],
+            meshed[3]
+        );
+        assert!(
+            meshed_poses * 100 >= bundled_poses * 95,
+            "poses {meshed_poses} of {bundled_poses}"
+        );
+        // Within 20 % of the bundled model's figure, or of a floor where both are tiny.
+        let floors = [0.005, 0.5, 0.05, 0.5];
+        for k in 0..4 {
+            assert!(
+                meshed[k] <= 1.2 * bundled[k] + floors[k],
+                "error {k}: {} from the mesh, {} bundled",
+                meshed[k],
+                bundled[k]
+            );
+        }
+    }
+}
+
+#[test]
+fn a_model_file_for_another_projectile_is_refused() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("any-projectile-mismatch");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let model = dir.join("other.model");
+    let bytes = imade_host::model::encode("other-1000x80", &imade_host::model::reference(), None)
+        .expect("encodes");
+    std::fs::write(&model, bytes).unwrap();
+    let error = imade_host::model::for_clip("ref-1378x80", Some(&model)).unwrap_err();
+    assert!(
+        format!("{error:#}").contains("the model file is for \"other-1000x80\""),
+        "{error:#}"
+    );
+    let unknown = imade_host::model::for_clip("nope-1x1", None).unwrap_err();
+    assert!(
+        format!("{unknown:#}").contains("unknown projectile \"nope-1x1\""),
+        "{unknown:#}"
+    );
+}
