@@ -4,7 +4,7 @@
 //! The mesh is in body frame B, in metres (after the mesh scale): origin anywhere on the axis,
 //! +x_B along the axis towards the nose. s is the distance aft of the nose tip.
 //!
-//! [`derive`] checks that the mesh is closed (after welding coincident vertices, so that STL
+//! [`derive()`] checks that the mesh is closed (after welding coincident vertices, so that STL
 //! triangle soups pass), that its principal axis is x_B and its size plausible, then cuts it with
 //! [`STATIONS`] planes x = const. In each cut it takes the largest radius of the cut's outline in
 //! each of [`SECTORS`] roll sectors (the outline's segments are clipped to the sectors exactly,
@@ -78,7 +78,7 @@ const BISECTIONS: usize = 24;
 
 pub use crate::model::{DerivedModel, FinPlanform};
 
-/// What [`derive`] found, for the user to confirm before the model is used.
+/// What [`derive()`] found, for the user to confirm before the model is used.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeshReport {
     /// Vertices in the mesh.

@@ -1,6 +1,6 @@
 //! Model files (`imade-model/1`, `docs/model-format.md`): the projectile's geometry and its
 //! silhouette table in one checksummed file, which the core validates and reads in place.
-//! Encoding a description ([`encode`]), the built-in reference's description ([`reference`]),
+//! Encoding a description ([`encode`]), the built-in reference's description ([`reference()`]),
 //! and finding the model a clip names ([`for_clip`]).
 
 pub mod command;
