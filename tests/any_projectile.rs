@@ -129,3 +129,88 @@ fn a_model_file_for_another_projectile_is_refused() {
         "{unknown:#}"
     );
 }
+
+/// The three other shapes of the simulator (`imade_host::sim::shapes`): each one's mesh becomes a
+/// model file, and its bundled clip (`fixtures/small-<id>`) runs with and without the range:
+/// every frame has a pose, and the medians per km are within the source paper's accuracy (Tx
+/// 0.15 m, Tz 50 m, pitch 3 deg with the range and 6 without, yaw 20 deg). Printed as the
+/// per-shape table beside the reference on `small-known-range`.
+#[test]
+fn other_shapes_run_from_their_meshes() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("other-shapes");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let reference = fixture("small-known-range");
+    let (ref_known, _) = medians(
+        &reference,
+        "bundled",
+        RangeArg::Auto,
+        &dir.join("ref-known"),
+    );
+    let (ref_unknown, _) = medians(
+        &reference,
+        "bundled",
+        RangeArg::Ignore,
+        &dir.join("ref-unknown"),
+    );
+    println!("| shape | range | Tx m/km | Tz m/km | pitch deg/km | best yaw deg/km | poses |");
+    println!(
+        "| ref-1378x80 (small-known-range) | known | {:.4} | {:.2} | {:.3} | {:.2} | 20/20 |",
+        ref_known[0], ref_known[1], ref_known[2], ref_known[3]
+    );
+    println!(
+        "| ref-1378x80 (small-known-range) | unknown | {:.4} | {:.2} | {:.3} | {:.2} | 20/20 |",
+        ref_unknown[0], ref_unknown[1], ref_unknown[2], ref_unknown[3]
+    );
+    for id in imade_host::sim::shapes::IDS {
+        let mesh = dir.join(format!("{id}.obj"));
+        let description = imade_host::sim::shapes::description(id).unwrap();
+        std::fs::write(
+            &mesh,
+            imade_host::sim::shapes::tessellate(&description).to_obj(),
+        )
+        .unwrap();
+        let model = dir.join(format!("{id}.model"));
+        imade_host::model::command::build_command(&BuildArgs {
+            model: None,
+            mesh: Some(mesh),
+            mesh_scale: 1.0,
+            diameter: Some(description.diameter_m),
+            id: Some(id.into()),
+            table: None,
+            no_table: false,
+            tilts: 91,
+            rolls: 18,
+            stations: 96,
+            out: model.clone(),
+        })
+        .unwrap_or_else(|e| panic!("{id}: {e:#}"));
+        let clip = fixture(&format!("small-{id}"));
+        for (range, name) in [(RangeArg::Auto, "known"), (RangeArg::Ignore, "unknown")] {
+            let (m, poses) = medians(
+                &clip,
+                model.to_str().unwrap(),
+                range,
+                &dir.join(format!("{id}-{name}")),
+            );
+            println!(
+                "| {id} | {name} | {:.4} | {:.2} | {:.3} | {:.2} | {poses}/20 |",
+                m[0], m[1], m[2], m[3]
+            );
+            assert_eq!(poses, 20, "{id} {name}: frames with a pose");
+            let pitch_bound = if range == RangeArg::Auto { 3.0 } else { 6.0 };
+            assert!(
+                m[0] <= 0.15 && m[1] <= 50.0,
+                "{id} {name}: Tx {} Tz {}",
+                m[0],
+                m[1]
+            );
+            assert!(
+                m[2] <= pitch_bound && m[3] <= 20.0,
+                "{id} {name}: pitch {} yaw {}",
+                m[2],
+                m[3]
+            );
+        }
+    }
+}

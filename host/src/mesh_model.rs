@@ -554,6 +554,9 @@ pub fn derive(
         ));
     }
     let profile: Vec<(f64, f64)> = kept.iter().map(|&i| samples[i]).collect();
+    // The model's diameter is its profile's widest (the simplification may drop the widest
+    // sample, by less than its tolerance), so that the file's radii never exceed it.
+    let diameter = 2.0 * profile.iter().map(|p| p.1).fold(0.0, f64::max);
     if tip_face && r_tip > 0.5 * r_max && r_base < 0.1 * r_max {
         warnings.push(
             "the front end is flat and the aft end pointed: is +x_B towards the nose?".to_string(),

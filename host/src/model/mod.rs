@@ -58,7 +58,7 @@ pub fn reference() -> DerivedModel {
 }
 
 /// The description of a finned tangent-ogive body (the simulator's analytic shape).
-fn describe(shape: &FinnedOgive) -> DerivedModel {
+pub fn describe(shape: &FinnedOgive) -> DerivedModel {
     let n = REFERENCE_NOSE_STATIONS - 1;
     let mut profile: Vec<(f64, f64)> = (0..=n)
         .map(|i| {

@@ -32,6 +32,7 @@ pub mod raster;
 pub mod render;
 pub mod scenario;
 pub mod sensor;
+pub mod shapes;
 pub mod simulation;
 pub mod sky;
 pub mod tracking;

@@ -191,10 +191,17 @@ impl ProjectileModel {
                 .to_string();
             return Ok(ProjectileModel::from_mesh(id, mesh));
         }
+        if let Some(description) = super::shapes::description(&cfg.model) {
+            return Ok(ProjectileModel::from_mesh(
+                cfg.model.clone(),
+                super::shapes::tessellate(&description),
+            ));
+        }
         if cfg.model != REFERENCE_ID {
             bail!(
-                "projectile.model {:?} is not built in (built in: {REFERENCE_ID}); give a mesh file instead",
-                cfg.model
+                "projectile.model {:?} is not built in (built in: {REFERENCE_ID}, {}); give a mesh file instead",
+                cfg.model,
+                super::shapes::IDS.join(", ")
             );
         }
         Ok(ProjectileModel {

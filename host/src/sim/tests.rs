@@ -248,7 +248,13 @@ fn written_clip_reads_back_with_its_truth() {
 #[test]
 fn small_fixtures_are_reproduced_byte_for_byte() {
     let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures");
-    for name in ["small-known-range", "small-unknown-range"] {
+    for name in [
+        "small-known-range",
+        "small-unknown-range",
+        "small-rocket-2200x120",
+        "small-shell-600x100",
+        "small-sixfin-1000x70",
+    ] {
         let scenario_file = fixtures.join("scenarios").join(format!("{name}.toml"));
         let dir = tempfile::tempdir().unwrap();
         let scenario = Scenario::from_file(&scenario_file).unwrap();
