@@ -59,7 +59,7 @@ pub fn description(id: &str) -> Option<DerivedModel> {
 }
 
 /// A closed triangle mesh of `model` in body frame B (origin at the middle of the length, +x_B
-/// towards the nose): a ring of [`SEGMENTS`] vertices per profile station (an apex where the
+/// towards the nose): a ring of 96 vertices per profile station (an apex where the
 /// radius is 0), flat discs closing the ends, and each fin as a closed prism whose root reaches
 /// into the body.
 pub fn tessellate(model: &DerivedModel) -> Mesh {
