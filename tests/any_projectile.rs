@@ -49,6 +49,27 @@ fn medians(clip: &Path, lut: &str, range: RangeArg, out: &Path) -> ([f64; 4], us
     )
 }
 
+/// `imade model build --mesh MESH --diameter D --id ID` with the default table grid, beside the
+/// mesh; the model file's path.
+fn model_from_mesh(mesh: &Path, id: &str, diameter_m: f64) -> PathBuf {
+    let out = mesh.with_extension("model");
+    imade_host::model::command::build_command(&BuildArgs {
+        model: None,
+        mesh: Some(mesh.to_path_buf()),
+        mesh_scale: 1.0,
+        diameter: Some(diameter_m),
+        id: Some(id.into()),
+        table: None,
+        no_table: false,
+        tilts: 91,
+        rolls: 18,
+        stations: 96,
+        out: out.clone(),
+    })
+    .unwrap_or_else(|e| panic!("{id}: {e:#}"));
+    out
+}
+
 #[test]
 fn a_model_built_from_a_mesh_runs_a_clip_like_the_bundled_one() {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("any-projectile");
@@ -56,21 +77,7 @@ fn a_model_built_from_a_mesh_runs_a_clip_like_the_bundled_one() {
     std::fs::create_dir_all(&dir).unwrap();
     let mesh = dir.join("ref-1378x80.obj");
     std::fs::write(&mesh, REF_1378X80.tessellate().to_obj()).unwrap();
-    let model = dir.join("ref-1378x80.model");
-    let args = BuildArgs {
-        model: None,
-        mesh: Some(mesh),
-        mesh_scale: 1.0,
-        diameter: Some(0.08),
-        id: Some("ref-1378x80".into()),
-        table: None,
-        no_table: false,
-        tilts: 91,
-        rolls: 18,
-        stations: 96,
-        out: model.clone(),
-    };
-    imade_host::model::command::build_command(&args).expect("the model builds from the mesh");
+    let model = model_from_mesh(&mesh, "ref-1378x80", 0.08);
     for (clip, range) in [
         ("small-known-range", RangeArg::Auto),
         ("small-unknown-range", RangeArg::Ignore),
@@ -170,21 +177,7 @@ fn other_shapes_run_from_their_meshes() {
             imade_host::sim::shapes::tessellate(&description).to_obj(),
         )
         .unwrap();
-        let model = dir.join(format!("{id}.model"));
-        imade_host::model::command::build_command(&BuildArgs {
-            model: None,
-            mesh: Some(mesh),
-            mesh_scale: 1.0,
-            diameter: Some(description.diameter_m),
-            id: Some(id.into()),
-            table: None,
-            no_table: false,
-            tilts: 91,
-            rolls: 18,
-            stations: 96,
-            out: model.clone(),
-        })
-        .unwrap_or_else(|e| panic!("{id}: {e:#}"));
+        let model = model_from_mesh(&mesh, id, description.diameter_m);
         let clip = fixture(&format!("small-{id}"));
         for (range, name) in [(RangeArg::Auto, "known"), (RangeArg::Ignore, "unknown")] {
             let (m, poses) = medians(

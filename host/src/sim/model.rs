@@ -124,7 +124,6 @@ impl FinnedOgive {
     fn push_fin(&self, mesh: &mut Mesh, index: u32) {
         let angle = 2.0 * std::f64::consts::PI * f64::from(index) / f64::from(self.fin_count);
         let out = Vec3::new(0.0, libm::sin(angle), libm::cos(angle));
-        let across = Vec3::new(1.0, 0.0, 0.0).cross(out);
         let (root_r, tip_r) = (0.5 * self.radius, self.fin_tip_radius);
         // The leading edge is the straight line through the root and tip chord ends.
         let le_root = self.length - self.fin_root_chord;
@@ -136,23 +135,7 @@ impl FinnedOgive {
             (self.length, tip_r),
             (self.length, root_r),
         ];
-        let half = 0.5 * self.fin_thickness;
-        let corners: Vec<[u32; 2]> = outline
-            .iter()
-            .map(|&(s, r)| {
-                let centre = Vec3::new(self.x_at(s), 0.0, 0.0) + out * r;
-                [
-                    mesh.push_vertex(centre + across * half),
-                    mesh.push_vertex(centre - across * half),
-                ]
-            })
-            .collect();
-        mesh.push_quad(corners[0][0], corners[1][0], corners[2][0], corners[3][0]);
-        mesh.push_quad(corners[3][1], corners[2][1], corners[1][1], corners[0][1]);
-        for k in 0..4 {
-            let (a, b) = (corners[k], corners[(k + 1) % 4]);
-            mesh.push_quad(a[0], a[1], b[1], b[0]);
-        }
+        super::shapes::push_plate(mesh, self.length, &outline, out, self.fin_thickness);
     }
 }
 

@@ -138,7 +138,6 @@ fn push_fin(mesh: &mut Mesh, model: &DerivedModel, fins: &FinPlanform, index: u3
     let roll =
         (fins.first_fin_roll_deg + 360.0 * f64::from(index) / f64::from(fins.count)).to_radians();
     let out = Vec3::new(0.0, roll.cos(), roll.sin());
-    let across = Vec3::new(1.0, 0.0, 0.0).cross(out);
     let body = model.diameter_m * 0.5;
     let root_r = 0.5 * body;
     // Extend the leading and trailing edges from the body's radius inwards to root_r.
@@ -151,11 +150,25 @@ fn push_fin(mesh: &mut Mesh, model: &DerivedModel, fins: &FinPlanform, index: u3
         (fins.tip_te_s, fins.tip_radius_m),
         (inward(fins.root_te_s, fins.tip_te_s), root_r),
     ];
-    let half = 0.5 * fins.thickness_m;
+    push_plate(mesh, model.length_m, &outline, out, fins.thickness_m);
+}
+
+/// A flat plate of `thickness` m as a closed prism: its `outline` of four (s aft of the tip, r
+/// from the axis) corners, in the plane of the axis and the unit vector `out`, on a body
+/// `length` m long.
+pub fn push_plate(
+    mesh: &mut Mesh,
+    length: f64,
+    outline: &[(f64, f64); 4],
+    out: Vec3,
+    thickness: f64,
+) {
+    let across = Vec3::new(1.0, 0.0, 0.0).cross(out);
+    let half = 0.5 * thickness;
     let corners: Vec<[u32; 2]> = outline
         .iter()
         .map(|&(s, r)| {
-            let centre = Vec3::new(0.5 * model.length_m - s, 0.0, 0.0) + out * r;
+            let centre = Vec3::new(0.5 * length - s, 0.0, 0.0) + out * r;
             [
                 mesh.push_vertex(centre + across * half),
                 mesh.push_vertex(centre - across * half),
