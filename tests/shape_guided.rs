@@ -7,8 +7,8 @@
 use imade_core::shape_guided::{ShapeGuided, ShapeGuidedConfig};
 use imade_core::table_match::guided_loop::{LoopOutcome, LoopStop};
 use imade_core::{
-    Camera, ChipMask, ChipView, Config, FrameInput, GuidedLoopConfig, GuidedMethod, MatchConfig,
-    Pipeline, RangeUse, Status,
+    Camera, ChipMask, ChipView, Config, FrameInput, GuidedLoopConfig, GuidedMethod, Pipeline,
+    RangeUse, Status,
 };
 use imade_host::clip::{Clip, load_chip, load_mask};
 use imade_tests::pose_errors;
@@ -519,15 +519,9 @@ fn run_loop(method: Option<GuidedMethod>, range_use: RangeUse) -> Vec<LoopFrame>
     let camera = clip.meta.camera.camera();
     let config = Config {
         range_use,
-        table_match: MatchConfig {
-            guided: GuidedLoopConfig {
-                method,
-                ..GuidedLoopConfig::DEFAULT
-            },
-            ..MatchConfig::DEFAULT
-        },
         ..Config::DEFAULT
-    };
+    }
+    .with_guided_method(method);
     let table = imade_tests::bundled_table();
     let mut pipeline: Box<Pipeline> =
         Box::new(Pipeline::new(config, camera, imade_tests::reference_model()).with_table(table));

@@ -64,6 +64,14 @@ impl Config {
     };
 }
 
+impl Config {
+    /// This configuration with the shape-guided loop's `method` (None: no loop).
+    pub const fn with_guided_method(mut self, method: Option<GuidedMethod>) -> Config {
+        self.table_match.guided.method = method;
+        self
+    }
+}
+
 impl Default for Config {
     fn default() -> Self {
         Self::DEFAULT

@@ -6,9 +6,7 @@ use crate::exit::PartialFailure;
 use crate::stages::{STAGES, mask_file_name};
 use crate::summary::{ClipSummary, Problem, RunSummary, SUMMARY_FORMAT};
 use anyhow::{Context, bail};
-use imade_core::{
-    Config, FrameInput, GuidedMethod, MatchConfig, Pipeline, RangeUse, Status, results,
-};
+use imade_core::{Config, FrameInput, GuidedMethod, Pipeline, RangeUse, Status, results};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -71,17 +69,7 @@ pub fn parse_refine(name: &str) -> Result<RefineChoice, String> {
 
 /// The core configuration of a job: the range use's, with the shape-guided method.
 fn job_config(range: RangeArg, refine: RefineChoice) -> Config {
-    let config = range.config();
-    Config {
-        table_match: MatchConfig {
-            guided: imade_core::GuidedLoopConfig {
-                method: refine.0,
-                ..config.table_match.guided
-            },
-            ..config.table_match
-        },
-        ..config
-    }
+    range.config().with_guided_method(refine.0)
 }
 
 /// Arguments of `imade run`.

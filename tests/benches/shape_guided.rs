@@ -20,9 +20,7 @@ use common::cpu::ThreadCpuTime;
 use criterion::{Criterion, criterion_group, criterion_main};
 use imade_core::lut::render::{Placement, View, draw};
 use imade_core::shape_guided::{ShapeGuided, ShapeGuidedConfig};
-use imade_core::{
-    ChipMask, ChipView, Config, GuidedLoopConfig, GuidedMethod, ImagePoint, MatchConfig, Pipeline,
-};
+use imade_core::{ChipMask, ChipView, Config, GuidedMethod, ImagePoint};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -125,23 +123,8 @@ fn frame_refine(c: &mut Criterion<ThreadCpuTime>) {
     group.sample_size(20);
     for method in [None, Some(GuidedMethod::SisCut), Some(GuidedMethod::GvfAsm)] {
         group.bench_function(method.map_or("none", |m| m.as_str()), |b| {
-            let config = Config {
-                table_match: MatchConfig {
-                    guided: GuidedLoopConfig {
-                        method,
-                        ..GuidedLoopConfig::DEFAULT
-                    },
-                    ..MatchConfig::DEFAULT
-                },
-                ..Config::DEFAULT
-            };
-            let pipeline = Pipeline::new(config, fixture.camera, fixture.model);
-            let mut pipeline: Box<Pipeline> = Box::new(pipeline.with_table(table));
-            let mut frames = fixture.frames.iter().cycle();
-            b.iter(|| {
-                let frame = frames.next().expect("a clip with frames");
-                black_box(pipeline.process(&black_box(frame.input())))
-            });
+            let config = Config::DEFAULT.with_guided_method(method);
+            common::bench_frames(b, &fixture, config, Some(table));
         });
     }
     group.finish();

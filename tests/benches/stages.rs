@@ -19,7 +19,7 @@ use imade_core::segment::background::Background;
 use imade_core::segment::label::{Labeler, Rect};
 use imade_core::segment::{Segmenter, Target};
 use imade_core::table_match::TableMatch;
-use imade_core::{Config, ImagePoint, Pipeline};
+use imade_core::{Config, ImagePoint};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -183,15 +183,7 @@ fn stages(c: &mut Criterion<ThreadCpuTime>) {
     let mut pipelines = vec![("frame", None)];
     pipelines.extend(fixture.table.map(|t| ("frame_table", Some(t))));
     for (name, table) in pipelines {
-        group.bench_function(name, |b| {
-            let mut next = cycle(&fixture.frames);
-            let pipeline = Pipeline::new(config, fixture.camera, fixture.model);
-            let mut pipeline: Box<Pipeline> = Box::new(match table {
-                Some(t) => pipeline.with_table(t),
-                None => pipeline,
-            });
-            b.iter(|| black_box(pipeline.process(&black_box(next().input()))));
-        });
+        group.bench_function(name, |b| common::bench_frames(b, &fixture, config, table));
     }
 
     group.finish();

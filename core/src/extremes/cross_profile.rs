@@ -69,6 +69,17 @@ pub struct Binned {
 }
 
 impl Binned {
+    /// An empty profile `half_width` px either side of the axis in bins of `bin_width` px.
+    fn empty(half_width: f32, bin_width: f32) -> Binned {
+        Binned {
+            sum: [0.0; CROSS_BINS],
+            count: [0; CROSS_BINS],
+            half_width,
+            bin_width,
+            pixels: 0,
+        }
+    }
+
     /// The profile's points: bin centre (px across), mean contrast, weight (pixel count).
     pub fn point(&self, i: usize) -> Option<(f32, f32, f32)> {
         let c = *self.count.get(i)?;
@@ -99,13 +110,7 @@ pub fn bin(
 ) -> Binned {
     let half_width = half_width.max(3.0);
     let bin_width = bin_width.max(2.0 * half_width / CROSS_BINS as f32);
-    let mut binned = Binned {
-        sum: [0.0; CROSS_BINS],
-        count: [0; CROSS_BINS],
-        half_width,
-        bin_width,
-        pixels: 0,
-    };
+    let mut binned = Binned::empty(half_width, bin_width);
     let sign = polarity.sign();
     // The pixels around the stretch: its bounding box in chip coordinates.
     let reach = libm::fabsf(stretch.t0).max(libm::fabsf(stretch.t1)) + half_width + 1.0;
@@ -274,13 +279,7 @@ impl Binned {
         weight: u16,
         f: impl Fn(f32) -> f32,
     ) -> Binned {
-        let mut binned = Binned {
-            sum: [0.0; CROSS_BINS],
-            count: [0; CROSS_BINS],
-            half_width,
-            bin_width,
-            pixels: 0,
-        };
+        let mut binned = Binned::empty(half_width, bin_width);
         let bins = ((2.0 * half_width / bin_width) as usize).min(CROSS_BINS);
         for i in 0..bins {
             let s = -half_width + (i as f32 + 0.5) * bin_width;

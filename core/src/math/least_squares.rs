@@ -209,13 +209,7 @@ mod tests {
     /// Settings for the tests: the fits' damping schedule, a tight tolerance, room to converge.
     const CONFIG: Config = Config {
         max_iterations: 200,
-        initial_damping: 1e-2,
-        damping_up: 10.0,
-        damping_down: 0.3,
-        min_damping: 1e-7,
-        max_damping: 1e6,
-        diagonal_floor: 1e-9,
-        relative_tolerance: 1e-7,
+        ..Config::DEFAULT
     };
 
     /// A model `y(x; p)` of two parameters: its value and gradient.

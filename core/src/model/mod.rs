@@ -83,11 +83,6 @@ impl<'a> ProjectileModel<'a> {
         text_at(self.bytes, FIELD.id, MODEL_ID_LEN)
     }
 
-    /// The model file's bytes.
-    pub fn bytes(&self) -> &'a [u8] {
-        self.bytes
-    }
-
     /// The silhouette table the file carries, if any.
     pub fn table(&self) -> Option<Table<'a>> {
         self.table

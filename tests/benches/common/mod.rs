@@ -4,9 +4,12 @@
 
 pub mod cpu;
 
+use cpu::ThreadCpuTime;
+use criterion::Bencher;
 use imade_core::lut::table::Table;
-use imade_core::{Camera, ChipView, FrameInput, ProjectileModel};
+use imade_core::{Camera, ChipView, Config, FrameInput, Pipeline, ProjectileModel};
 use imade_host::clip::{ChipImage, Clip, ClipMeta, load_chip};
+use std::hint::black_box;
 use std::path::PathBuf;
 
 /// One decoded frame of the clip.
@@ -89,4 +92,24 @@ pub fn load() -> Fixture {
         table,
         frames,
     }
+}
+
+/// Times `Pipeline::process` on the fixture's frames in turn, with `config` and, where given,
+/// `table`.
+pub fn bench_frames(
+    b: &mut Bencher<ThreadCpuTime>,
+    fixture: &Fixture,
+    config: Config,
+    table: Option<Table<'static>>,
+) {
+    let pipeline = Pipeline::new(config, fixture.camera, fixture.model);
+    let mut pipeline: Box<Pipeline> = Box::new(match table {
+        Some(t) => pipeline.with_table(t),
+        None => pipeline,
+    });
+    let mut frames = fixture.frames.iter().cycle();
+    b.iter(|| {
+        let frame = frames.next().expect("a clip with frames");
+        black_box(pipeline.process(&black_box(frame.input())))
+    });
 }
