@@ -1,10 +1,12 @@
 //! The firmware on an emulated Cortex-M4F (QEMU mps2-an386) gives the host's results, bit for
-//! bit. `fixtures/small-known-range` is packed by the host library and run through
-//! `firmware-sim/run` (which installs and builds what is missing, see docs/firmware.md), then
-//! compared with two independent host runs:
+//! bit, with the bundled reference model and with a model built from another projectile's mesh.
+//! A clip is packed by the host library and run through `firmware-sim/run` (which installs and
+//! builds what is missing, see docs/firmware.md; with a model file it builds the firmware with
+//! that file in flash), then compared with two independent host runs:
 //!
-//! - `imade run` (its library) on the clip folder, with the bundled silhouette table: the results
-//!   CSVs must be byte-identical (same status and the same printed pose in every row);
+//! - `imade run` (its library) on the clip folder, with the same model and silhouette table:
+//!   the results CSVs must be byte-identical (same status and the same printed pose in every
+//!   row);
 //! - the host's pipeline replaying the same packed bytes: every frame's whole result, floats at
 //!   full precision (shortest round-trip `Debug` form), must be identical, i.e. tolerance zero.
 //!
@@ -12,6 +14,7 @@
 
 use anyhow::{Context, anyhow, ensure};
 use imade_core::Pipeline;
+use imade_host::model::command::{BuildArgs, MeshArgs};
 use imade_host::pack::pack_clip;
 use imade_host::run::{RangeArg, RunArgs, run};
 use imade_pack::{TableUse, read_header, read_record, replay};
@@ -25,10 +28,53 @@ fn root() -> PathBuf {
 
 #[test]
 fn firmware_results_equal_the_hosts() -> anyhow::Result<()> {
-    let clip = root().join("fixtures/small-known-range");
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("firmware-small-known-range");
+    check_firmware(&root().join("fixtures/small-known-range"), "bundled", &dir)
+}
+
+/// A projectile other than the reference, its model built from its mesh (`imade model mesh`,
+/// then `imade model build --mesh`), runs on the firmware from flash as on the host.
+#[test]
+fn firmware_runs_a_model_built_from_a_mesh() -> anyhow::Result<()> {
+    let id = "sixfin-1000x70";
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("firmware-sixfin");
     if dir.exists() {
         std::fs::remove_dir_all(&dir)?;
+    }
+    std::fs::create_dir_all(&dir)?;
+    let mesh = dir.join(format!("{id}.obj"));
+    imade_host::model::command::mesh_command(&MeshArgs {
+        shape: id.into(),
+        out: mesh.clone(),
+    })?;
+    let model = dir.join(format!("{id}.model"));
+    imade_host::model::command::build_command(&BuildArgs {
+        model: None,
+        mesh: Some(mesh),
+        mesh_scale: 1.0,
+        diameter: Some(0.07),
+        id: None,
+        table: None,
+        no_table: false,
+        tilts: 91,
+        rolls: 18,
+        stations: 96,
+        out: model.clone(),
+    })?;
+    let lut = model.to_str().context("a UTF-8 path")?;
+    check_firmware(
+        &root().join(format!("fixtures/small-{id}")),
+        lut,
+        &dir.join("run"),
+    )
+}
+
+/// Runs `clip` with the model choice `lut` (`bundled` or a model file) on the firmware and on the
+/// host, in `dir`, and compares them.
+fn check_firmware(clip: &Path, lut: &str, dir: &Path) -> anyhow::Result<()> {
+    let clip = clip.to_path_buf();
+    if dir.exists() {
+        std::fs::remove_dir_all(dir)?;
     }
     let host_dir = dir.join("host");
     run(&RunArgs {
@@ -36,16 +82,18 @@ fn firmware_results_equal_the_hosts() -> anyhow::Result<()> {
         out: host_dir.clone(),
         range: RangeArg::Auto,
         save_masks: false,
-        lut: "bundled".into(),
+        lut: lut.into(),
         refine: imade_host::run::RefineChoice(None),
     })?;
     let host_csv = host_dir.join("results.csv");
     let packed = dir.join("clip.pack");
-    pack_clip(&clip, &packed, RangeArg::Auto, "bundled")?;
+    pack_clip(&clip, &packed, RangeArg::Auto, lut)?;
 
     let out = dir.join("firmware");
     let status = Command::new(root().join("firmware-sim/run"))
         .arg(&packed)
+        .arg("--lut")
+        .arg(lut)
         .arg("--out")
         .arg(&out)
         .status()
@@ -62,7 +110,7 @@ fn firmware_results_equal_the_hosts() -> anyhow::Result<()> {
         "the comparison should cover poses, not only failures: {poses} ok rows"
     );
 
-    let expected = host_outcomes(&std::fs::read(&packed)?)?.join("\n");
+    let expected = host_outcomes(&std::fs::read(&packed)?, lut)?.join("\n");
     let outcomes = std::fs::read_to_string(out.join("outcomes.txt"))?;
     assert_same_lines(&expected, &outcomes, "outcomes.txt");
 
@@ -91,15 +139,17 @@ fn firmware_results_equal_the_hosts() -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Every frame's outcome in `Debug` form, from the host's pipeline replaying the packed clip.
-fn host_outcomes(mut packed: &[u8]) -> anyhow::Result<Vec<String>> {
+/// Every frame's outcome in `Debug` form, from the host's pipeline replaying the packed clip
+/// with the model choice `lut`.
+fn host_outcomes(mut packed: &[u8], lut: &str) -> anyhow::Result<Vec<String>> {
     let header = read_header(&mut packed).map_err(|e| anyhow!("{e:?}"))?;
     ensure!(
         header.table == TableUse::Bundled,
-        "the clip should use its bundled table"
+        "the clip should use its model file's table"
     );
-    let model = imade_host::model::for_clip(&header.projectile, None)?;
-    let table = model.table().context("no bundled table")?;
+    let file = (lut != "bundled").then(|| Path::new(lut));
+    let model = imade_host::model::for_clip(&header.projectile, file)?;
+    let table = model.table().context("no table in the model file")?;
     let mut pipeline: Box<Pipeline> =
         Box::new(Pipeline::new(header.config(), header.camera, model).with_table(table));
     let mut chip = vec![0u16; imade_core::capacity::MAX_CHIP_PIXELS];

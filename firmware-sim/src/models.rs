@@ -1,12 +1,13 @@
-//! The bundled model files (imade-model/1, each with its silhouette table), in flash: the same
-//! files `imade run --lut bundled` reads from `fixtures/models/`.
+//! The model files (imade-model/1, each with its silhouette table) in flash: by default the same
+//! files `imade run --lut bundled` reads from `fixtures/models/`; a build with
+//! `IMADE_FIRMWARE_MODELS` set carries the files it names instead (`build.rs`; `firmware-sim/run
+//! --lut FILE` builds with the user's file).
 
 use imade_core::{ModelError, ProjectileModel};
 
-/// Bundled model files.
-static BUNDLED: [&[u8]; 1] = [include_bytes!("../../fixtures/models/ref-1378x80.model")];
+include!(concat!(env!("OUT_DIR"), "/models.rs"));
 
-/// The bundled model with id `id`, validated (checksum and table included); `None` when there
+/// The model in flash with id `id`, validated (checksum and table included); `None` when there
 /// is none.
 pub fn bundled(id: &str) -> Option<Result<ProjectileModel<'static>, ModelError>> {
     BUNDLED

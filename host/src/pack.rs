@@ -4,7 +4,7 @@
 
 use crate::clip::{ChipImage, ChipPixels, Clip, FrameChipError, FrameRow, write_atomically};
 use crate::run::RangeArg;
-use anyhow::{Context, bail};
+use anyhow::Context;
 use imade_pack::{ChipFrame, Header, Record, SampleDepth, TableUse, format::le_bytes};
 use std::path::{Path, PathBuf};
 
@@ -19,8 +19,9 @@ pub struct PackArgs {
     /// How range measurements are used (as for `imade run`).
     #[arg(long, value_enum, default_value = "auto")]
     pub range: RangeArg,
-    /// Silhouette table (as for `imade run`): `bundled` or `none`; the firmware holds only the
-    /// bundled tables, in flash.
+    /// Model and silhouette table (as for `imade run`): `bundled`, `none` or a model file; the
+    /// firmware reads the model and its table from flash, so a model file must be the one the
+    /// firmware was built with (`firmware-sim/run --lut FILE` builds it so).
     #[arg(long, default_value = "bundled")]
     pub lut: String,
 }
@@ -54,14 +55,9 @@ pub fn pack_bytes(dir: &Path, range: RangeArg, lut: &str) -> anyhow::Result<(Vec
     let model = clip.model(lut)?;
     let camera = clip.meta.camera.camera();
     let records = u32::try_from(clip.frames.len()).context("too many frames")?;
-    let table = match lut {
-        "bundled" | "none" => match crate::model::table_for(lut, &model) {
-            Some(_) => TableUse::Bundled,
-            None => TableUse::None,
-        },
-        file => {
-            bail!("--lut {file}: the firmware holds only the bundled tables (give bundled or none)")
-        }
+    let table = match crate::model::table_for(lut, &model) {
+        Some(_) => TableUse::Bundled,
+        None => TableUse::None,
     };
     let range_use = range.config().range_use;
     let header = Header::new(camera, range_use, table, &clip.meta.projectile, records)

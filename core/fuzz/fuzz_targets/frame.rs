@@ -59,6 +59,8 @@ enum ConfigSpec {
         max_gap_s: f32,
         mask_margin_sigmas: f32,
         mask_margin_px: f32,
+        /// The sky exclusion's minimum width, scale, margin and re-detection thresholds.
+        sky_exclusion: [f32; 5],
         ignore_range: bool,
         /// The shape-guided method, modulo 3 (0: none).
         guided: u8,
@@ -68,7 +70,7 @@ enum ConfigSpec {
         min_cylinder_px: f32,
         end_weight: f32,
         /// Every tunable of the silhouette stage, in its field order.
-        silhouette: [f32; 12],
+        silhouette: [f32; 10],
     },
 }
 
@@ -153,6 +155,7 @@ fn config(spec: &ConfigSpec) -> Config {
             max_gap_s,
             mask_margin_sigmas,
             mask_margin_px,
+            sky_exclusion: x,
             ignore_range,
             guided,
             shape_prior,
@@ -172,6 +175,11 @@ fn config(spec: &ConfigSpec) -> Config {
                 mask_min_sigma,
                 mask_margin_sigmas,
                 mask_margin_px,
+                sky_exclusion_min_width_px: x[0],
+                sky_exclusion_scale: x[1],
+                sky_exclusion_px: x[2],
+                redetect_sigma: x[3],
+                redetect_contrast: x[4],
             },
             silhouette: SilhouetteConfig {
                 half_length_sds: s[0],
@@ -180,9 +188,8 @@ fn config(spec: &ConfigSpec) -> Config {
                 nose_ramp: (s[3], s[4]),
                 end_level: s[5],
                 max_gap: s[6],
-                taper_window: (s[7], s[8]),
-                plateau_window: (s[9], s[10]),
-                min_nose_evidence: s[11],
+                plateau_window: (s[7], s[8]),
+                min_nose_evidence: s[9],
             },
             table_match: MatchConfig {
                 section_bin_px,

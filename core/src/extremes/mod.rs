@@ -3,13 +3,14 @@
 //! 1. The cross-section of the cylindrical body is fitted on two stretches either side of the
 //!    centre ([`cross_profile`]): diameter, contrast and blur, and, from the two stretches'
 //!    offsets, the axis line corrected for the mask's moment errors.
-//! 2. The width profile along that axis ([`axial_profile`]) gives the ends: the nose is the end
-//!    that tapers (the ogive), the tail the end that stays full width (body and fins) to a sharp
-//!    drop. The nose tip is where a line fitted to the tapering width reaches zero; the tail edge
+//! 2. The width profile along that axis ([`axial_profile`]) gives the ends; which one is the
+//!    nose, the profile compared with the model's both ways round tells ([`orientation`]). The
+//!    nose tip is where a line fitted to the tapering width reaches zero; the tail edge
 //!    is where the width falls to half its plateau.
 
 pub mod axial_profile;
 pub mod cross_profile;
+pub mod orientation;
 
 use crate::chip::ChipView;
 use crate::model::ProjectileModel;
@@ -37,14 +38,12 @@ pub struct SilhouetteConfig {
     /// Gaps in the width profile shorter than this fraction of the half-length are crossed (a
     /// broken silhouette).
     pub max_gap: f32,
-    /// Where the nose is told from the tail: the mean width over this stretch inside each end,
-    /// in fractions of the length (the ogive is narrow there, the tail full).
-    pub taper_window: (f32, f32),
     /// The tail's plateau width is the mean over this stretch inside the tail edge, in fractions
     /// of the length; the tail edge is where the width falls to half of it.
     pub plateau_window: (f32, f32),
-    /// Below this difference of the two ends' taper, in diameters, the nose is the end nearest
-    /// the recent frames' nose direction.
+    /// Below this difference between the width profile's misfit to the model with the nose at
+    /// one end and at the other ([`orientation`]), in diameters squared, the nose is the end
+    /// nearest the recent frames' nose direction.
     pub min_nose_evidence: f32,
 }
 
@@ -57,9 +56,8 @@ impl SilhouetteConfig {
         nose_ramp: (0.2, 0.65),
         end_level: 0.15,
         max_gap: 0.25,
-        taper_window: (0.03, 0.10),
         plateau_window: (0.03, 0.08),
-        min_nose_evidence: 0.1,
+        min_nose_evidence: 0.002,
     };
 }
 
@@ -153,8 +151,8 @@ pub struct Silhouette {
     pub contrast: f32,
     /// Blur standard deviation, px.
     pub sigma_px: f32,
-    /// How clearly the nose end tapers and the tail end does not, in body diameters (0: no
-    /// evidence).
+    /// How much better the width profile fits the model with the nose where it was put than the
+    /// other way round, in diameters squared (0: no evidence; [`orientation`]).
     pub nose_evidence: f32,
 }
 
@@ -232,11 +230,7 @@ pub fn measure(
     if length.is_nan() || length <= 0.0 {
         return Err(ExtremesError::NoEnds);
     }
-    // Mean width just inside each end: the ogive is narrow there, the tail full.
-    let (near, far) = config.taper_window;
-    let taper_low = profile.mean_between(lo50 + near * length, lo50 + far * length);
-    let taper_high = profile.mean_between(hi50 - near * length, hi50 - far * length);
-    let evidence = (taper_low - taper_high) / d; // > 0: the high end tapers (nose at +t)
+    let evidence = orientation::nose_high_evidence(&profile, lo50, hi50, d, model);
     let nose_high = if libm::fabsf(evidence) < config.min_nose_evidence
         && let Some(prior) = prior_dir
     {

@@ -8,9 +8,22 @@
 
 use crate::capacity::{BACKGROUND_TILE, MAX_CHIP_SIDE, MAX_TILES_PER_SIDE, NOISE_SAMPLES};
 use crate::chip::ChipView;
+use crate::extremes::Axis;
 
 /// Smallest noise standard deviation reported, grey levels (the quantization floor).
 const MIN_SIGMA: f32 = 0.3;
+
+/// A region of the chip left out of the background: within `half_length` px of `axis.centre`
+/// along the axis and `half_width` px across it (a detected body and its blur).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Region {
+    /// The region's centre line.
+    pub axis: Axis,
+    /// Half its extent along the axis, px.
+    pub half_length: f32,
+    /// Half its extent across the axis, px.
+    pub half_width: f32,
+}
 
 /// Background levels per tile and the chip's noise level.
 #[derive(Clone)]
@@ -122,21 +135,100 @@ impl Background {
         self.rows.fill(self.tiles_y, self.height);
         for ty in 0..self.tiles_y {
             for tx in 0..self.tiles_x {
-                let x0 = tx * BACKGROUND_TILE;
-                let y0 = ty * BACKGROUND_TILE;
-                let level = tile_median(
-                    chip,
-                    x0,
-                    y0,
-                    (x0 + BACKGROUND_TILE).min(self.width),
-                    (y0 + BACKGROUND_TILE).min(self.height),
-                );
+                let level = tile_median(chip, self.tile_rect(tx, ty), |_, _| true).0;
                 if let Some(slot) = self.levels.get_mut(ty * self.tiles_x + tx) {
                     *slot = level;
                 }
             }
         }
         self.sigma = self.noise_sigma_of(chip);
+    }
+
+    /// Re-estimates the tiles that `region` overlaps from their pixels outside it, and keeps
+    /// the result when it moves a tile's level by more than `min_change` grey levels (returns
+    /// whether it did): a body covering more than half a tile drags the tile's median to the
+    /// body's level (a body 16 px wide or more does), a thin one does not and leaves the sky as
+    /// it was. A tile with less than a quarter of its pixels left takes the mean of its
+    /// neighbours that kept enough.
+    pub fn exclude(&mut self, chip: &ChipView, region: &Region, min_change: f32) -> bool {
+        let reach = region.half_length + region.half_width;
+        let tiles_of = |centre: f32, tiles: usize| {
+            let first = ((centre - reach).max(0.0) as usize) / BACKGROUND_TILE;
+            let last = ((centre + reach).max(0.0) as usize) / BACKGROUND_TILE;
+            (first.min(tiles), (last + 1).min(tiles))
+        };
+        let (tx0, tx1) = tiles_of(region.axis.centre.x, self.tiles_x);
+        let (ty0, ty1) = tiles_of(region.axis.centre.y, self.tiles_y);
+        let outside = |x: usize, y: usize| {
+            let (along, across) = region.axis.local(x as f32, y as f32);
+            libm::fabsf(along) > region.half_length || libm::fabsf(across) > region.half_width
+        };
+        let mut levels = self.levels;
+        let mut too_few = [false; MAX_TILES_PER_SIDE * MAX_TILES_PER_SIDE];
+        for ty in ty0..ty1 {
+            for tx in tx0..tx1 {
+                let rect = self.tile_rect(tx, ty);
+                let (level, kept) = tile_median(chip, rect, outside);
+                let index = ty * self.tiles_x + tx;
+                let area = (rect.2 - rect.0) * (rect.3 - rect.1);
+                if 4 * kept < area {
+                    if let Some(flag) = too_few.get_mut(index) {
+                        *flag = true;
+                    }
+                } else if let Some(slot) = levels.get_mut(index) {
+                    *slot = level;
+                }
+            }
+        }
+        let usable = |tx: usize, ty: usize| {
+            tx < self.tiles_x
+                && ty < self.tiles_y
+                && !too_few.get(ty * self.tiles_x + tx).copied().unwrap_or(true)
+        };
+        for ty in ty0..ty1 {
+            for tx in tx0..tx1 {
+                if usable(tx, ty) {
+                    continue;
+                }
+                let neighbours = [
+                    (tx.wrapping_sub(1), ty),
+                    (tx + 1, ty),
+                    (tx, ty.wrapping_sub(1)),
+                    (tx, ty + 1),
+                ];
+                let (mut sum, mut n) = (0.0f32, 0u32);
+                for (nx, ny) in neighbours {
+                    if usable(nx, ny) {
+                        sum += levels.get(ny * self.tiles_x + nx).copied().unwrap_or(0.0);
+                        n += 1;
+                    }
+                }
+                if n > 0
+                    && let Some(slot) = levels.get_mut(ty * self.tiles_x + tx)
+                {
+                    *slot = sum / n as f32;
+                }
+            }
+        }
+        let moved = levels
+            .iter()
+            .zip(&self.levels)
+            .any(|(new, old)| libm::fabsf(new - old) > min_change);
+        if moved {
+            self.levels = levels;
+        }
+        moved
+    }
+
+    /// Tile (`tx`, `ty`)'s pixels: columns `.0..2`, rows `.1..3`.
+    fn tile_rect(&self, tx: usize, ty: usize) -> (usize, usize, usize, usize) {
+        let (x0, y0) = (tx * BACKGROUND_TILE, ty * BACKGROUND_TILE);
+        (
+            x0,
+            y0,
+            (x0 + BACKGROUND_TILE).min(self.width),
+            (y0 + BACKGROUND_TILE).min(self.height),
+        )
     }
 
     /// Noise standard deviation, grey levels.
@@ -287,35 +379,45 @@ fn axis_weights(p: f32, tiles: usize, size: usize) -> (usize, usize, f32) {
     (t0, t1, w.clamp(0.0, 1.0))
 }
 
-/// Median of the tile `x0..x1` x `y0..y1`, interpolated within its histogram bin.
-fn tile_median(chip: &ChipView, x0: usize, y0: usize, x1: usize, y1: usize) -> f32 {
+/// Median of the pixels `(x, y)` of the tile `rect` (columns `.0..2`, rows `.1..3`) for which
+/// `keep(x, y)`, interpolated within its histogram bin, and how many pixels it took.
+fn tile_median(
+    chip: &ChipView,
+    rect: (usize, usize, usize, usize),
+    keep: impl Fn(usize, usize) -> bool,
+) -> (f32, usize) {
+    let (x0, y0, x1, y1) = rect;
     let shift = if chip.is_16bit() { 8 } else { 0 };
     let mut coarse = [0u32; 256];
     for y in y0..y1 {
-        chip.for_each_in_span(y, x0, x1, |_, v| {
-            coarse[usize::from((v >> shift) as u8)] += 1
+        chip.for_each_in_span(y, x0, x1, |x, v| {
+            if keep(x, y) {
+                coarse[usize::from((v >> shift) as u8)] += 1;
+            }
         });
     }
     let total: u32 = coarse.iter().sum();
     if total == 0 {
-        return 0.0;
+        return (0.0, 0);
     }
     let half = total as f32 * 0.5;
     let (bin, below) = median_bin(&coarse, half);
     if shift == 0 {
-        return interpolated(bin, below, &coarse, half, 1.0);
+        return (interpolated(bin, below, &coarse, half, 1.0), total as usize);
     }
     // 16-bit: a second pass over the low byte of the values in the median's coarse bin.
     let mut fine = [0u32; 256];
     for y in y0..y1 {
-        chip.for_each_in_span(y, x0, x1, |_, v| {
-            if usize::from(v >> 8) == bin {
+        chip.for_each_in_span(y, x0, x1, |x, v| {
+            if usize::from(v >> 8) == bin && keep(x, y) {
                 fine[usize::from(v as u8)] += 1;
             }
         });
     }
     let (fine_bin, fine_below) = median_bin(&fine, half - below as f32);
-    (bin as f32) * 256.0 + interpolated(fine_bin, fine_below, &fine, half - below as f32, 1.0)
+    let level =
+        (bin as f32) * 256.0 + interpolated(fine_bin, fine_below, &fine, half - below as f32, 1.0);
+    (level, total as usize)
 }
 
 /// The bin where the cumulative count reaches `half`, and the count below it.
@@ -375,6 +477,49 @@ mod tests {
             "a noiseless gradient has little noise: {}",
             bg.sigma()
         );
+    }
+
+    /// A bar 24 px wide drags the tiles it covers to its own level; left out, the sky is found
+    /// again under it (the tiles it covers wholly take their neighbours' level). A thin bar moves
+    /// nothing, and the first estimate stands.
+    #[test]
+    fn a_wide_body_left_out_gives_the_sky_back() {
+        let (w, h) = (128usize, 128usize);
+        let mut data = [0u8; 128 * 128];
+        for wide in [true, false] {
+            let half_width = if wide { 12.0 } else { 2.0 };
+            for y in 0..h {
+                for x in 0..w {
+                    let across = (y as f32 - 48.0).abs();
+                    let inside = across <= half_width && (16..112).contains(&x);
+                    data[y * w + x] = if inside { 30 } else { 150 };
+                }
+            }
+            let chip = ChipView::gray8(&data, w, h, w, 0, 0).unwrap();
+            let mut bg = Background::new();
+            bg.estimate(&chip);
+            let region = Region {
+                axis: Axis {
+                    centre: crate::point::ImagePoint::new(64.0, 48.0),
+                    dir: crate::point::ImagePoint::new(1.0, 0.0),
+                },
+                half_length: 50.0,
+                half_width: half_width + 3.0,
+            };
+            let before = bg.at(64.0, 48.0);
+            let moved = bg.exclude(&chip, &region, 3.0);
+            assert_eq!(moved, wide, "wide {wide}");
+            if wide {
+                assert!(before < 100.0, "the wide bar drags the sky: {before}");
+            }
+            for (x, y) in [(64.0, 48.0), (20.0, 40.0), (100.0, 56.0)] {
+                assert!(
+                    (bg.at(x, y) - 150.0).abs() < 1.0,
+                    "wide {wide}: sky at ({x},{y}) is {}",
+                    bg.at(x, y)
+                );
+            }
+        }
     }
 
     /// The per-pixel tables are a cache: the background they give is bit for bit the direct

@@ -14,10 +14,10 @@ pub mod select;
 use crate::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS, MAX_COMPONENTS};
 use crate::chip::ChipView;
 use crate::config::BodyPolarity;
-use crate::extremes::Silhouette;
+use crate::extremes::{Axis, Silhouette};
 use crate::mask::BitMask;
 use crate::point::ImagePoint;
-use background::Background;
+use background::{Background, Region};
 use label::{LabelError, Labeler, Moments, Rect};
 use select::{Candidate, Selection, Shape};
 
@@ -43,6 +43,20 @@ pub struct DetectConfig {
     pub mask_margin_sigmas: f32,
     /// ... plus this many px.
     pub mask_margin_px: f32,
+    /// A detected body whose mask is at least this wide, px, can cover more than half of a
+    /// background tile and drag the sky model to its own level: the sky under it is estimated
+    /// again without it ([`Background::exclude`]) ...
+    pub sky_exclusion_min_width_px: f32,
+    /// ... over its mask's extent times this factor ...
+    pub sky_exclusion_scale: f32,
+    /// ... plus this many px (the blur).
+    pub sky_exclusion_px: f32,
+    /// When that moves the sky by more than this many noise standard deviations and ...
+    pub redetect_sigma: f32,
+    /// ... this fraction of the body's mean contrast in its mask (a wide body had dragged the
+    /// first estimate to its own level), the corrected sky is kept and the chip detected again
+    /// on it; otherwise the first estimate stands (a cloud's texture moves it less).
+    pub redetect_contrast: f32,
 }
 
 impl DetectConfig {
@@ -56,12 +70,36 @@ impl DetectConfig {
         mask_min_sigma: 2.0,
         mask_margin_sigmas: 2.0,
         mask_margin_px: 3.0,
+        sky_exclusion_min_width_px: 12.0,
+        sky_exclusion_scale: 1.25,
+        sky_exclusion_px: 3.0,
+        redetect_sigma: 3.0,
+        redetect_contrast: 0.5,
     };
 }
 
 impl Default for DetectConfig {
     fn default() -> Self {
         Self::DEFAULT
+    }
+}
+
+/// A uniform bar's half-length (or half-width) in standard deviations of its mask: sqrt 3.
+const UNIFORM_BAR_HALF_SDS: f32 = 1.732;
+
+/// The region a detected body of mask shape `shape` and its blur cover, for the sky model to
+/// leave out: the mask's extent ([`UNIFORM_BAR_HALF_SDS`]) scaled and grown by the config's sky
+/// exclusion.
+fn sky_exclusion(shape: &Shape, config: &DetectConfig) -> Region {
+    let extent =
+        |sd: f32| config.sky_exclusion_scale * UNIFORM_BAR_HALF_SDS * sd + config.sky_exclusion_px;
+    Region {
+        axis: Axis {
+            centre: shape.centre,
+            dir: shape.axis,
+        },
+        half_length: extent(shape.major_sd),
+        half_width: extent(shape.minor_sd),
     }
 }
 
@@ -174,6 +212,28 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             .reset(chip.width(), chip.height())
             .map_err(|_| SegmentError::Capacity(CapacityKind::Mask))?;
         self.background.estimate(chip);
+        let first = self.detect_on_sky(chip, config, aim)?;
+        if UNIFORM_BAR_HALF_SDS * 2.0 * first.shape.minor_sd < config.sky_exclusion_min_width_px {
+            return Ok(first);
+        }
+        let region = sky_exclusion(&first.shape, config);
+        let contrast = libm::fabsf(first.moments.sum_residual) / first.moments.n.max(1) as f32;
+        let min_change = (config.redetect_sigma * self.background.sigma())
+            .max(config.redetect_contrast * contrast);
+        if !self.background.exclude(chip, &region, min_change) {
+            return Ok(first);
+        }
+        self.mask.clear();
+        self.detect_on_sky(chip, config, aim)
+    }
+
+    /// [`Segmenter::detect`] on the current sky model.
+    fn detect_on_sky(
+        &mut self,
+        chip: &ChipView,
+        config: &DetectConfig,
+        aim: ImagePoint,
+    ) -> Result<Target, SegmentError> {
         // Clutter (a cloudy sky the sky model does not follow) can fill a table at the
         // threshold; a target stands out at a higher one, so it is doubled and the chip labeled
         // again, a few times at most.

@@ -86,7 +86,7 @@ impl core::error::Error for PackError {}
 pub enum TableUse {
     /// None: the closed form only.
     None,
-    /// The projectile's bundled table (`fixtures/lut/<projectile>.lut`, in the firmware's flash).
+    /// The silhouette table carried by the projectile's model file in the firmware's flash.
     Bundled,
 }
 

@@ -23,13 +23,48 @@ enum ModelCommand {
     /// Build a model file: the built-in reference's (`--model`) or a mesh's (`--mesh`), with its
     /// silhouette table.
     Build(BuildArgs),
+    /// Write the simulator's mesh of a built-in shape (OBJ, body frame B, metres): the mesh its
+    /// clips are rendered from, for `model build --mesh` or another renderer.
+    Mesh(MeshArgs),
 }
 
 /// Runs `imade model`.
 pub fn run(args: &ModelArgs) -> anyhow::Result<()> {
     match &args.command {
         ModelCommand::Build(b) => build_command(b),
+        ModelCommand::Mesh(m) => mesh_command(m),
     }
+}
+
+/// `imade model mesh`
+#[derive(Args, Debug)]
+pub struct MeshArgs {
+    /// Built-in shape id: `ref-1378x80` or one of the simulator's other shapes.
+    #[arg(long)]
+    pub shape: String,
+    /// Output Wavefront OBJ file.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Runs `imade model mesh`.
+pub fn mesh_command(args: &MeshArgs) -> anyhow::Result<()> {
+    let mesh = crate::sim::shapes::mesh(&args.shape).with_context(|| {
+        format!(
+            "no built-in shape {:?} (built in: {}, {})",
+            args.shape,
+            crate::sim::model::REFERENCE_ID,
+            crate::sim::shapes::IDS.join(", ")
+        )
+    })?;
+    write_atomically(&args.out, mesh.to_obj().as_bytes())?;
+    println!(
+        "{}: {} vertices, {} triangles",
+        args.out.display(),
+        mesh.vertices.len(),
+        mesh.triangles.len()
+    );
+    Ok(())
 }
 
 /// `imade model build`

@@ -58,6 +58,14 @@ pub fn description(id: &str) -> Option<DerivedModel> {
     }
 }
 
+/// The simulator's closed mesh of built-in shape `id` (the reference or one of [`IDS`]).
+pub fn mesh(id: &str) -> Option<Mesh> {
+    if id == super::model::REFERENCE_ID {
+        return Some(super::model::REF_1378X80.tessellate());
+    }
+    description(id).map(|d| tessellate(&d))
+}
+
 /// A closed triangle mesh of `model` in body frame B (origin at the middle of the length, +x_B
 /// towards the nose): a ring of 96 vertices per profile station (an apex where the
 /// radius is 0), flat discs closing the ends, and each fin as a closed prism whose root reaches

@@ -1,0 +1,123 @@
+//! Which end is the nose: the measured width profile against the model's, both ways round.
+//!
+//! Between the two ends' half-diameter crossings, the profile is sampled at [`SAMPLES`] points
+//! and compared with the model's silhouette width at the same fractions of its own length
+//! between its half-diameter points, once with the nose at the high end and once at the low end.
+//! The model says what each end looks like (a long ogive, a boat tail, fins), so nothing here
+//! assumes a shape. Where the model has fins, its body width is only a lower bound (the fins'
+//! width depends on roll), so only a profile narrower than the body counts there.
+
+use super::axial_profile::WidthProfile;
+use crate::model::ProjectileModel;
+
+/// Points at which the two profiles are compared.
+pub const SAMPLES: usize = 32;
+
+/// The model's width profile between its half-diameter points, normalized for the comparison.
+struct ModelWidths {
+    /// Width at sample k from the nose's half-diameter point, in body diameters.
+    width: [f32; SAMPLES],
+    /// Whether sample k lies where the model has fins (its width there is a lower bound).
+    finned: [bool; SAMPLES],
+}
+
+impl ModelWidths {
+    fn of(model: &ProjectileModel) -> ModelWidths {
+        let diameter = model.diameter_m;
+        let half = 0.25 * diameter;
+        // The half-diameter points: where the radius first and last reaches R/2 (stations).
+        let (mut nose50, mut tail50) = (0.0f32, model.length_m);
+        let mut seen = false;
+        for i in 0..model.stations() {
+            let (s, r) = model.station(i);
+            if r >= half {
+                if !seen {
+                    nose50 = s;
+                    seen = true;
+                }
+                tail50 = s;
+            }
+        }
+        if model.base_radius_m() >= half {
+            tail50 = model.length_m;
+        }
+        let fins_from = model.fins().map_or(f32::INFINITY, |f| f.root_s.0);
+        let mut width = [0.0f32; SAMPLES];
+        let mut finned = [false; SAMPLES];
+        for (k, (w, f)) in width.iter_mut().zip(finned.iter_mut()).enumerate() {
+            let s = nose50 + (tail50 - nose50) * fraction(k);
+            *w = 2.0 * model.radius_at(s) / diameter;
+            *f = s >= fins_from;
+        }
+        ModelWidths { width, finned }
+    }
+
+    /// Mean squared difference, in diameters squared, of the measured widths (from the nose
+    /// end) and the model's.
+    fn misfit(&self, measured: impl Iterator<Item = f32>) -> f32 {
+        let mut sum = 0.0f32;
+        for ((m, &e), &finned) in measured.zip(&self.width).zip(&self.finned) {
+            let miss = if finned { (m - e).min(0.0) } else { m - e };
+            sum += miss * miss;
+        }
+        sum / SAMPLES as f32
+    }
+}
+
+/// The fraction of the length at which sample `k` lies.
+fn fraction(k: usize) -> f32 {
+    (k as f32 + 0.5) / SAMPLES as f32
+}
+
+/// How much better the profile fits the model with the nose at `hi50` than at `lo50`: the
+/// misfit with the nose low minus the misfit with the nose high, in diameters squared (> 0: the
+/// nose is at the high end). `lo50` and `hi50` are the ends' half-diameter crossings, px along
+/// the axis; `diameter_px` the body's diameter.
+pub fn nose_high_evidence(
+    profile: &WidthProfile,
+    lo50: f32,
+    hi50: f32,
+    diameter_px: f32,
+    model: &ProjectileModel,
+) -> f32 {
+    let expected = ModelWidths::of(model);
+    let scale = 1.0 / diameter_px.max(1e-6);
+    // The mean measured width over sample k's stretch, counted from the end at `from`.
+    let stretch = (hi50 - lo50) / SAMPLES as f32;
+    let width_from = |from: f32, step: f32| {
+        move |k: usize| {
+            let t0 = from + step * k as f32;
+            profile.mean_between(t0, t0 + step) * scale
+        }
+    };
+    let from_high = (0..SAMPLES).map(width_from(hi50, -stretch));
+    let from_low = (0..SAMPLES).map(width_from(lo50, stretch));
+    expected.misfit(from_low) - expected.misfit(from_high)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::testing::reference;
+
+    #[test]
+    fn the_reference_model_widths_taper_at_the_nose_and_carry_fins_at_the_tail() {
+        let widths = ModelWidths::of(&reference());
+        // The ogive (0.24 m of 1.378 m) is narrower than the body near the nose's end ...
+        assert!(widths.width[0] < 0.9, "{}", widths.width[0]);
+        assert!(!widths.finned[0]);
+        // ... the body is full in the middle, and the last 0.12 m carry fins.
+        assert!((widths.width[SAMPLES / 2] - 1.0).abs() < 1e-4);
+        assert!(widths.finned[SAMPLES - 1]);
+        assert!(!widths.finned[SAMPLES - 4]);
+    }
+
+    #[test]
+    fn a_body_profile_is_matched_the_right_way_round() {
+        let widths = ModelWidths::of(&reference());
+        let nose_first = widths.width.iter().copied();
+        let tail_first = widths.width.iter().rev().copied();
+        assert_eq!(widths.misfit(nose_first), 0.0);
+        assert!(widths.misfit(tail_first) > 0.005);
+    }
+}
