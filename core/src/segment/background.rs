@@ -168,6 +168,10 @@ impl Background {
         for ty in ty0..ty1 {
             for tx in tx0..tx1 {
                 let rect = self.tile_rect(tx, ty);
+                // Only a tile the region covers about half of or more can have been dragged.
+                if region_cover(rect, &outside) < MIN_DRAGGED_COVER {
+                    continue;
+                }
                 let (level, kept) = tile_median(chip, rect, outside);
                 let index = ty * self.tiles_x + tx;
                 let area = (rect.2 - rect.0) * (rect.3 - rect.1);
@@ -377,6 +381,22 @@ fn axis_weights(p: f32, tiles: usize, size: usize) -> (usize, usize, f32) {
     let c1 = tile_centre(t1, size);
     let w = if c1 > c0 { (p - c0) / (c1 - c0) } else { 0.0 };
     (t0, t1, w.clamp(0.0, 1.0))
+}
+
+/// Below this fraction of a tile inside an excluded region (sampled, [`region_cover`]), the
+/// body in the region covers less than half the tile and cannot have dragged its median.
+const MIN_DRAGGED_COVER: f32 = 0.4;
+
+/// The fraction of the tile `rect` (columns `.0..2`, rows `.1..3`) not `outside` a region, on a
+/// grid of 8 x 8 sample points.
+fn region_cover(rect: (usize, usize, usize, usize), outside: impl Fn(usize, usize) -> bool) -> f32 {
+    const GRID: usize = 8;
+    let (x0, y0, x1, y1) = rect;
+    let at = |lo: usize, hi: usize, k: usize| lo + (2 * k + 1) * (hi - lo) / (2 * GRID);
+    let inside = (0..GRID * GRID)
+        .filter(|k| !outside(at(x0, x1, k % GRID), at(y0, y1, k / GRID)))
+        .count();
+    inside as f32 / (GRID * GRID) as f32
 }
 
 /// Median of the pixels `(x, y)` of the tile `rect` (columns `.0..2`, rows `.1..3`) for which
