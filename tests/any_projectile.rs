@@ -72,7 +72,7 @@ fn model_from_mesh(mesh: &Path, id: &str, diameter_m: f64) -> PathBuf {
         table: None,
         no_table: false,
         tilts: 91,
-        rolls: 18,
+        rolls: None,
         stations: 96,
         out: out.clone(),
     })

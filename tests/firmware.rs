@@ -57,7 +57,7 @@ fn firmware_runs_a_model_built_from_a_mesh() -> anyhow::Result<()> {
         table: None,
         no_table: false,
         tilts: 91,
-        rolls: 18,
+        rolls: None,
         stations: 96,
         out: model.clone(),
     })?;

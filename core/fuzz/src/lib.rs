@@ -1,9 +1,10 @@
 //! Shared by the fuzz targets: chips synthesized from a few fuzzer-chosen numbers ([`synth`]),
-//! the invariants every frame result must keep ([`oracle`]), and lookup tables assembled
-//! from fuzzer-chosen fields ([`table`]).
+//! the invariants every frame result must keep ([`oracle`]), and lookup tables and model files
+//! assembled from fuzzer-chosen fields ([`table`], [`model`]).
 
 use imade_core::ProjectileModel;
 
+pub mod model;
 pub mod oracle;
 pub mod synth;
 pub mod table;

@@ -95,9 +95,10 @@ pub struct BuildArgs {
     /// Tilts of the built table, from 0 to 90 deg inclusive.
     #[arg(long, default_value_t = 91)]
     pub tilts: u16,
-    /// Rolls of the built table, from 0 to 90 deg exclusive.
-    #[arg(long, default_value_t = 18)]
-    pub rolls: u16,
+    /// Rolls of the built table, from 0 to 90 deg exclusive (default: 18 for a finned body; 1
+    /// without fins, whose silhouette does not change with roll).
+    #[arg(long)]
+    pub rolls: Option<u16>,
     /// Stations per entry of the built table.
     #[arg(long, default_value_t = 96)]
     pub stations: u16,
@@ -171,7 +172,9 @@ fn table_bytes(
         None => {
             let grid = Grid {
                 tilts: args.tilts,
-                rolls: args.rolls,
+                rolls: args
+                    .rolls
+                    .unwrap_or(if model.fins.is_some() { 18 } else { 1 }),
                 stations: args.stations,
             };
             let source = match mesh {
