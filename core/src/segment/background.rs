@@ -169,7 +169,7 @@ impl Background {
             for tx in tx0..tx1 {
                 let rect = self.tile_rect(tx, ty);
                 // Only a tile the region covers about half of or more can have been dragged.
-                if region_cover(rect, &outside) < MIN_DRAGGED_COVER {
+                if region_cover(rect, outside) < MIN_DRAGGED_COVER {
                     continue;
                 }
                 let (level, kept) = tile_median(chip, rect, outside);
