@@ -70,7 +70,7 @@ enum ConfigSpec {
         min_cylinder_px: f32,
         end_weight: f32,
         /// Every tunable of the silhouette stage, in its field order.
-        silhouette: [f32; 10],
+        silhouette: [f32; 12],
     },
 }
 
@@ -190,6 +190,8 @@ fn config(spec: &ConfigSpec) -> Config {
                 max_gap: s[6],
                 plateau_window: (s[7], s[8]),
                 min_nose_evidence: s[9],
+                min_plume_area: s[10],
+                plume_dominance: s[11],
             },
             table_match: MatchConfig {
                 section_bin_px,

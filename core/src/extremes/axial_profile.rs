@@ -12,16 +12,19 @@ use crate::config::BodyPolarity;
 use crate::point::ImagePoint;
 use crate::segment::background::Background;
 
-/// The width profile: `width[i]` at `t = start + (i + 0.5) * bin` px along the axis.
+/// The width profile: `width[i]` at `t = start + (i + 0.5) * bin` px along the axis; beside it
+/// the same of the opposite polarity's pixels left out of it (`opposite[i]`, positive), where an
+/// exhaust plume shows.
 pub struct WidthProfile {
     width: [f32; PROFILE_BINS],
+    opposite: [f32; PROFILE_BINS],
     bins: usize,
     start: f32,
     bin: f32,
 }
 
 /// Pixels whose contrast is this many noise deviations of the wrong polarity are left out of
-/// the profile (an exhaust plume of opposite polarity over the tail).
+/// the profile (an exhaust plume of opposite polarity over the tail) and summed apart.
 const OPPOSITE_CUTOFF_SIGMA: f32 = 4.0;
 
 impl WidthProfile {
@@ -41,6 +44,7 @@ impl WidthProfile {
         let bins = ((2.0 * reach / bin) as usize).clamp(1, PROFILE_BINS);
         let start = -0.5 * bins as f32 * bin;
         let mut width = [0.0f32; PROFILE_BINS];
+        let mut opposite = [0.0f32; PROFILE_BINS];
         let sign = polarity.sign();
         let cutoff = -OPPOSITE_CUTOFF_SIGMA * background.sigma();
         let extent = reach + band + 1.0;
@@ -59,9 +63,11 @@ impl WidthProfile {
                     return;
                 }
                 let value = sign * (f32::from(v) - background.at(x as f32, y as f32));
-                if value < cutoff {
-                    return;
-                }
+                let (profile, value) = if value < cutoff {
+                    (&mut opposite, -value)
+                } else {
+                    (&mut width, value)
+                };
                 let position = (along - start) / bin - 0.5;
                 if position < -1.0 || position >= bins as f32 {
                     return;
@@ -72,7 +78,7 @@ impl WidthProfile {
                 for (index, weight) in [(i, 1.0 - frac), (i + 1, frac)] {
                     if index >= 0
                         && (index as usize) < bins
-                        && let Some(slot) = width.get_mut(index as usize)
+                        && let Some(slot) = profile.get_mut(index as usize)
                     {
                         *slot += value * weight * scale;
                     }
@@ -81,6 +87,7 @@ impl WidthProfile {
         }
         WidthProfile {
             width,
+            opposite,
             bins,
             start,
             bin,
@@ -161,6 +168,16 @@ impl WidthProfile {
             i += inward;
         }
         None
+    }
+
+    /// The opposite polarity's area between positions `t0` and `t1` (either order), in px² at
+    /// the body's contrast.
+    pub fn opposite_area_between(&self, t0: f32, t1: f32) -> f32 {
+        let (a, b) = (self.bin_of(t0.min(t1)), self.bin_of(t0.max(t1)));
+        let sum: f32 = (a..=b)
+            .map(|i| self.opposite.get(i).copied().unwrap_or(0.0))
+            .sum();
+        sum * self.bin
     }
 
     /// Mean width over positions between `t0` and `t1` (either order), px.

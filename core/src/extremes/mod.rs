@@ -45,6 +45,12 @@ pub struct SilhouetteConfig {
     /// one end and at the other ([`orientation`]), in diameters squared, the nose is the end
     /// nearest the recent frames' nose direction.
     pub min_nose_evidence: f32,
+    /// An opposite-polarity plume of at least this area, in body diameters squared, at one end
+    /// and ...
+    pub min_plume_area: f32,
+    /// ... at least this many times the other end's marks its end as the tail
+    /// ([`orientation::plume_at_high`]).
+    pub plume_dominance: f32,
 }
 
 impl SilhouetteConfig {
@@ -58,6 +64,8 @@ impl SilhouetteConfig {
         max_gap: 0.25,
         plateau_window: (0.03, 0.08),
         min_nose_evidence: 0.002,
+        min_plume_area: 1.0,
+        plume_dominance: 4.0,
     };
 }
 
@@ -231,12 +239,22 @@ pub fn measure(
         return Err(ExtremesError::NoEnds);
     }
     let evidence = orientation::nose_high_evidence(&profile, lo50, hi50, d, model);
-    let nose_high = if libm::fabsf(evidence) < config.min_nose_evidence
-        && let Some(prior) = prior_dir
-    {
-        axis.dir.dot(prior) >= 0.0
-    } else {
-        evidence >= 0.0
+    let plume_high = orientation::plume_at_high(
+        &profile,
+        lo50,
+        hi50,
+        d,
+        config.min_plume_area,
+        config.plume_dominance,
+    );
+    let nose_high = match plume_high {
+        Some(plume_high) => !plume_high,
+        None if libm::fabsf(evidence) < config.min_nose_evidence
+            && let Some(prior) = prior_dir =>
+        {
+            axis.dir.dot(prior) >= 0.0
+        }
+        None => evidence >= 0.0,
     };
     let (nose_outer, nose_inward, nose50, tail_outer, tail_inward, tail50) = if nose_high {
         (high, -1isize, hi50, low, 1isize, lo50)

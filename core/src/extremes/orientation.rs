@@ -1,4 +1,9 @@
-//! Which end is the nose: the measured width profile against the model's, both ways round.
+//! Which end is the nose: an exhaust plume at one end, else the measured width profile against
+//! the model's, both ways round.
+//!
+//! A plume of the opposite polarity (bright exhaust behind a dark body) shows beyond the tail in
+//! the width profile's opposite-polarity sum; where one end has a clear one and the other not,
+//! that end is the tail ([`plume_at_high`]).
 //!
 //! Between the two ends' half-diameter crossings, the profile is sampled at [`SAMPLES`] points
 //! and compared with the model's silhouette width at the same fractions of its own length
@@ -93,6 +98,31 @@ pub fn nose_high_evidence(
     let from_high = (0..SAMPLES).map(width_from(hi50, -stretch));
     let from_low = (0..SAMPLES).map(width_from(lo50, stretch));
     expected.misfit(from_low) - expected.misfit(from_high)
+}
+
+/// Where a plume marks the tail: `Some(true)` when the high end has one of at least
+/// `min_area_d2` body diameters squared (at the body's contrast, of the opposite polarity, from
+/// half the length beyond the end to a tenth inside it) and at least `dominance` times the
+/// other end's, `Some(false)` for the low end, `None` when neither does.
+pub fn plume_at_high(
+    profile: &WidthProfile,
+    lo50: f32,
+    hi50: f32,
+    diameter_px: f32,
+    min_area_d2: f32,
+    dominance: f32,
+) -> Option<bool> {
+    let length = hi50 - lo50;
+    let unit = diameter_px * diameter_px;
+    let low = profile.opposite_area_between(lo50 - 0.5 * length, lo50 + 0.1 * length) / unit;
+    let high = profile.opposite_area_between(hi50 + 0.5 * length, hi50 - 0.1 * length) / unit;
+    if high >= min_area_d2 && high >= dominance * low {
+        Some(true)
+    } else if low >= min_area_d2 && low >= dominance * high {
+        Some(false)
+    } else {
+        None
+    }
 }
 
 #[cfg(test)]
