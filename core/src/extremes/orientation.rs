@@ -142,6 +142,49 @@ mod tests {
         assert!(!widths.finned[SAMPLES - 4]);
     }
 
+    /// A dark bar 8 px wide from x = 40 to 160 on a flat sky, with a bright blob beyond its
+    /// right end: the right end is the tail; without the blob, no end is.
+    #[test]
+    fn a_bright_blob_beyond_one_end_marks_the_tail() {
+        use crate::chip::ChipView;
+        use crate::config::BodyPolarity;
+        use crate::extremes::Axis;
+        use crate::point::ImagePoint;
+        use crate::segment::background::Background;
+        let (w, h) = (200usize, 64usize);
+        for with_plume in [true, false] {
+            let mut data = [100u8; 200 * 64];
+            for y in 0..h {
+                for x in 0..w {
+                    let across = (y as f32 - 32.0).abs();
+                    if across <= 4.0 && (40..160).contains(&x) {
+                        data[y * w + x] = 40;
+                    } else if with_plume && across <= 5.0 && (160..190).contains(&x) {
+                        data[y * w + x] = 200;
+                    }
+                }
+            }
+            let chip = ChipView::gray8(&data, w, h, w, 0, 0).unwrap();
+            let mut background = Background::new();
+            background.estimate(&chip);
+            let axis = Axis {
+                centre: ImagePoint::new(100.0, 32.0),
+                dir: ImagePoint::new(1.0, 0.0),
+            };
+            let profile = WidthProfile::build(
+                &chip,
+                &background,
+                &axis,
+                BodyPolarity::Dark,
+                60.0,
+                95.0,
+                8.0,
+            );
+            let tail = plume_at_high(&profile, -60.0, 60.0, 9.0, 1.0, 4.0);
+            assert_eq!(tail, with_plume.then_some(true), "plume {with_plume}");
+        }
+    }
+
     #[test]
     fn a_body_profile_is_matched_the_right_way_round() {
         let widths = ModelWidths::of(&reference());
