@@ -20,6 +20,14 @@ use format::{FIELD, HEADER_LEN, MODEL_ID_LEN};
 /// cylinder the table match measures its cross-section on).
 const FULL_RADIUS: f32 = 0.999;
 
+/// A radius at or above this fraction of the body's radius counts as wide: where a body whose
+/// full diameter is too short to measure (a tapered mortar) has its cross-section measured,
+/// the diameter then corrected with the model's mean radius there ([`ProjectileModel::wide_s`]).
+const WIDE_RADIUS: f32 = 0.75;
+
+/// Samples of the radius profile in [`ProjectileModel::mean_radius_m`].
+const MEAN_RADIUS_SAMPLES: usize = 16;
+
 /// The fins: identical flat plates evenly spaced in roll, each with a trapezoidal planform whose
 /// root chord lies on the body.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -51,6 +59,8 @@ pub struct ProjectileModel<'a> {
     /// Where the body is at its full diameter, m aft of the tip: from the nose's shoulder to the
     /// first station aft of it that narrows (a boat tail) or the fins' root leading edge.
     cylinder_s: (f32, f32),
+    /// Where the body is at least [`WIDE_RADIUS`] of its full radius, likewise.
+    wide_s: (f32, f32),
     table: Option<Table<'a>>,
 }
 
@@ -65,9 +75,11 @@ impl<'a> ProjectileModel<'a> {
             length_m: f32_at(bytes, FIELD.length),
             diameter_m: f32_at(bytes, FIELD.diameter),
             cylinder_s: (0.0, 0.0),
+            wide_s: (0.0, 0.0),
             table: None,
         };
-        model.cylinder_s = model.full_diameter_stretch();
+        model.cylinder_s = model.stretch_at_least(FULL_RADIUS);
+        model.wide_s = model.stretch_at_least(WIDE_RADIUS);
         if let Some(range) = layout.table {
             let table = Table::parse(bytes.get(range).unwrap_or(&[])).map_err(ModelError::Table)?;
             model.table = Some(table);
@@ -177,8 +189,29 @@ impl<'a> ProjectileModel<'a> {
         self.cylinder_s
     }
 
-    fn full_diameter_stretch(&self) -> (f32, f32) {
-        let full = FULL_RADIUS * self.radius_m();
+    /// Where the body is at least 75 % of its full radius, clear of the fins' roots: (start, end)
+    /// m aft of the tip, as [`ProjectileModel::cylinder_s`]; it contains the cylinder.
+    pub fn wide_s(&self) -> (f32, f32) {
+        self.wide_s
+    }
+
+    /// The mean radius between `s0` and `s1` m aft of the tip (either order), m, over evenly
+    /// spaced samples: a cross-section measured over a stretch where the radius varies has
+    /// about twice this as its diameter.
+    pub fn mean_radius_m(&self, s0: f32, s1: f32) -> f32 {
+        let sum: f32 = (0..MEAN_RADIUS_SAMPLES)
+            .map(|k| {
+                let f = (k as f32 + 0.5) / MEAN_RADIUS_SAMPLES as f32;
+                self.radius_at(s0 + (s1 - s0) * f)
+            })
+            .sum();
+        sum / MEAN_RADIUS_SAMPLES as f32
+    }
+
+    /// The first contiguous stretch where the radius is at least `fraction` of the body's,
+    /// ending at the fins' root leading edge at the latest.
+    fn stretch_at_least(&self, fraction: f32) -> (f32, f32) {
+        let full = fraction * self.radius_m();
         let mut start = None;
         let mut end = self.length_m;
         for i in 0..self.stations {

@@ -179,7 +179,10 @@ fn matched_ends(
     [at(matched.origin_t + half), at(matched.origin_t - half)]
 }
 
-/// The shaded cross-section of the cylinder between the nose shoulder and the fins.
+/// The shaded cross-section of the cylinder between the nose shoulder and the fins; where the
+/// model's cylinder is too short to measure (a tapered body), of its wide stretch instead
+/// ([`ProjectileModel::wide_s`]), with the diameter scaled from the stretch's mean radius to the
+/// full one.
 fn cylinder_section(
     frame: &MatchInput,
     model: &ProjectileModel,
@@ -188,12 +191,18 @@ fn cylinder_section(
     let sil = frame.silhouette;
     let length = sil.nose_t - sil.tail_t;
     let margin = config.cylinder_margin;
-    let (start_s, end_s) = model.cylinder_s();
-    let t0 = sil.tail_t + length * ((model.length_m - end_s) / model.length_m + margin);
-    let t1 = sil.nose_t - length * (start_s / model.length_m + margin);
-    if t1 - t0 < config.min_cylinder_px || t1.is_nan() || t0.is_nan() {
-        return Err(MatchError::NoSection);
-    }
+    let l = model.length_m;
+    // The stretch (m aft of the tip, inside the margins) and where it lies along the axis.
+    let within = |(start_s, end_s): (f32, f32)| {
+        let (s0, s1) = (start_s + margin * l, end_s - margin * l);
+        let t0 = sil.tail_t + length * (l - s1) / l;
+        let t1 = sil.nose_t - length * s0 / l;
+        (t1 - t0 >= config.min_cylinder_px).then_some((s0, s1, t0, t1))
+    };
+    let (full, (s0, s1, t0, t1)) = match within(model.cylinder_s()) {
+        Some(stretch) => (true, stretch),
+        None => (false, within(model.wide_s()).ok_or(MatchError::NoSection)?),
+    };
     let shape = Shape {
         centre: sil.axis.centre,
         axis: sil.axis.dir,
@@ -211,5 +220,13 @@ fn cylinder_section(
         config.section_bin_px,
     );
     let start = cross_profile::fit_binned(&binned).ok_or(MatchError::NoSection)?;
-    section::fit(&binned, &start).ok_or(MatchError::NoSection)
+    let mut section = section::fit(&binned, &start).ok_or(MatchError::NoSection)?;
+    if !full {
+        let mean_r = model.mean_radius_m(s0, s1);
+        if !(mean_r > 0.0) {
+            return Err(MatchError::NoSection);
+        }
+        section.diameter_px *= model.radius_m() / mean_r;
+    }
+    Ok(section)
 }
