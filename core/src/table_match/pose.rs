@@ -223,7 +223,7 @@ fn cylinder_section(
     let mut section = section::fit(&binned, &start).ok_or(MatchError::NoSection)?;
     if !full {
         let mean_r = model.mean_radius_m(s0, s1);
-        if !(mean_r > 0.0) {
+        if mean_r.is_nan() || mean_r <= 0.0 {
             return Err(MatchError::NoSection);
         }
         section.diameter_px *= model.radius_m() / mean_r;
