@@ -142,16 +142,44 @@ impl WidthProfile {
         last
     }
 
+    /// Width at bin `i` less the opposite polarity's there, px (0 outside): the whole contrast
+    /// across the axis, where a plume of the opposite polarity counts negative.
+    pub fn signed_at(&self, i: usize) -> f32 {
+        self.at(i) - self.opposite.get(i).copied().unwrap_or(0.0)
+    }
+
     /// Where, walking inwards from bin `outer` in direction `inward`, the width first reaches
     /// `level`: a position along the axis, px, linearly interpolated between the two bins.
     pub fn crossing_inward(&self, outer: usize, inward: isize, level: f32) -> Option<f32> {
+        self.crossing_inward_of(|i| self.at(i), outer, inward, level)
+    }
+
+    /// [`WidthProfile::crossing_inward`] on the signed profile ([`WidthProfile::signed_at`]).
+    pub fn signed_crossing_inward(&self, outer: usize, inward: isize, level: f32) -> Option<f32> {
+        self.crossing_inward_of(|i| self.signed_at(i), outer, inward, level)
+    }
+
+    /// Mean of the signed profile ([`WidthProfile::signed_at`]) between `t0` and `t1`, px.
+    pub fn signed_mean_between(&self, t0: f32, t1: f32) -> f32 {
+        let (a, b) = (self.bin_of(t0.min(t1)), self.bin_of(t0.max(t1)));
+        let n = (b - a + 1) as f32;
+        (a..=b).map(|i| self.signed_at(i)).sum::<f32>() / n
+    }
+
+    fn crossing_inward_of(
+        &self,
+        value: impl Fn(usize) -> f32,
+        outer: usize,
+        inward: isize,
+        level: f32,
+    ) -> Option<f32> {
         let mut prev = outer as isize - inward;
         let mut i = outer as isize;
         while i >= 0 && (i as usize) < self.bins {
-            let b = self.at(i as usize);
+            let b = value(i as usize);
             if b >= level {
-                let a = if prev >= 0 {
-                    self.at(prev as usize)
+                let a = if prev >= 0 && (prev as usize) < self.bins {
+                    value(prev as usize)
                 } else {
                     0.0
                 };

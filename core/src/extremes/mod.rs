@@ -64,7 +64,7 @@ impl SilhouetteConfig {
         max_gap: 0.25,
         plateau_window: (0.03, 0.08),
         min_nose_evidence: 0.002,
-        min_plume_area: 1.0,
+        min_plume_area: 0.25,
         plume_dominance: 4.0,
     };
 }
@@ -272,9 +272,24 @@ pub fn measure(
         tail50 + inward * near * length,
         tail50 + inward * far * length,
     );
-    let tail_t = profile
-        .crossing_inward(tail_outer, tail_inward, 0.5 * plateau)
-        .unwrap_or(tail50);
+    // A plume of the opposite polarity over the tail blurs into the body's edge: the edge is
+    // where the whole contrast is halfway between the body's plateau and the plume's level just
+    // beyond it, found walking in from there.
+    let plume_at_tail = plume_high.is_some_and(|high| high != nose_high);
+    let tail_t = if plume_at_tail {
+        let beyond = |f: f32| tail50 - inward * f * length;
+        let plume_level = profile
+            .signed_mean_between(beyond(near), beyond(far))
+            .min(0.0);
+        profile.signed_crossing_inward(
+            profile.bin_of(beyond(far)),
+            tail_inward,
+            0.5 * (plateau + plume_level),
+        )
+    } else {
+        profile.crossing_inward(tail_outer, tail_inward, 0.5 * plateau)
+    }
+    .unwrap_or(tail50);
     // Express along an axis directed from the tail to the nose.
     let (axis, nose_t, tail_t) = if nose_high {
         (axis, nose_t, tail_t)
