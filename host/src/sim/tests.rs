@@ -44,6 +44,7 @@ fn render_pose(model: &ProjectileModel, translation: Vec3, attitude: Attitude) -
         puffs: &[],
         psf_sigma_px: 0.9,
         supersampling: 8,
+        clutter: None,
     };
     render(&scene).unwrap()
 }
