@@ -13,12 +13,15 @@
 //!
 //! The modules, in the order a frame goes through them: [`scenario`] and [`presets`] (the knobs),
 //! [`trajectory`], [`attitude`], [`tracking`] and [`plan`] (the geometric truth of each frame),
+//! [`randomize`] (the physics drawn per clip and per frame from the scenario's ranges),
 //! [`model`] and [`mesh`] (the shape), [`sky`] and [`noise`] (the background and the light),
-//! [`raster`], [`plume`] and [`render`] (the radiance and the mask), [`sensor`] (blur, noise,
-//! quantization), [`simulation`] (the clip on disk).
+//! [`clutter`] (filaments, a second object, the noise scale of contrasts), [`raster`], [`plume`]
+//! and [`render`] (the radiance and the mask), [`sensor`] (blur, noise, quantization),
+//! [`simulation`] (the clip on disk).
 
 pub mod attitude;
 pub mod camera;
+pub mod clutter;
 pub mod math;
 pub mod mesh;
 pub mod model;
@@ -28,6 +31,7 @@ pub mod plume;
 pub mod pose;
 pub mod presets;
 pub mod random;
+pub mod randomize;
 pub mod raster;
 pub mod render;
 pub mod scenario;

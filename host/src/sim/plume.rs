@@ -1,6 +1,7 @@
-//! The exhaust plume: a flickering train of glowing Gaussian puffs behind the base, along -x_B.
-//! It adds light (never part of the mask), partly over the tail: the body hides a puff only where
-//! its surface is nearer than the puff's front.
+//! The exhaust plume: a flickering train of glowing Gaussian puffs behind the base, along -x_B
+//! (attached at the tail: the first puff sits within a tenth of the plume's length of the base).
+//! It adds light, or with a dark polarity absorbs it like smoke (never part of the mask), partly
+//! over the tail: the body hides a puff only where its surface is nearer than the puff's front.
 
 use super::camera::Intrinsics;
 use super::math::Vec3;
@@ -8,7 +9,7 @@ use super::model::ProjectileModel;
 use super::pose::BodyPose;
 use super::random::Random;
 use super::raster::SampleBuffer;
-use super::scenario::PlumeConfig;
+use super::scenario::{PlumeConfig, Polarity};
 
 /// Number of puffs in the plume.
 const PUFFS: usize = 10;
@@ -20,8 +21,10 @@ pub struct Puff {
     pub centre: Vec3,
     /// Gaussian radius, m.
     pub sigma: f64,
-    /// Peak radiance added at the puff's centre, relative units.
+    /// Peak radiance added at the puff's centre, relative units (optical depth when `dark`).
     pub peak: f64,
+    /// Whether the puff is dark smoke that absorbs rather than glowing exhaust.
+    pub dark: bool,
 }
 
 /// The puffs of one frame (empty without a plume); `rng` is that frame's plume stream.
@@ -47,6 +50,7 @@ pub fn puffs(cfg: &PlumeConfig, model: &ProjectileModel, rng: &mut Random) -> Ve
                 ),
                 sigma,
                 peak: cfg.brightness * flicker * libm::exp(-2.5 * f) * rng.between(0.7, 1.3),
+                dark: cfg.polarity == Polarity::Dark,
             }
         })
         .collect()
@@ -77,6 +81,7 @@ pub fn add_plume(
         let ys = (cv - reach_y).max(y0)..=(cv + reach_y).min(y0 + height as i64 - 1);
         let wx: Vec<f64> = xs.clone().map(|x| pixel_weight(x as f64 - u, sx)).collect();
         let norm = puff.peak * transmission * 2.0 * std::f64::consts::PI * sx * sy;
+        let depth_norm = puff.peak * 2.0 * std::f64::consts::PI * sx * sy;
         for y in ys {
             let wy = pixel_weight(y as f64 - v, sy);
             for (x, w) in xs.clone().zip(&wx) {
@@ -91,7 +96,13 @@ pub fn add_plume(
                     None => 1.0,
                 };
                 let index = (y - y0) as usize * width + (x - x0) as usize;
-                image[index] += norm * w * wy * visible;
+                if puff.dark {
+                    // Smoke: the optical depth at this pixel, and what the haze leaves of it.
+                    let depth = depth_norm * w * wy * visible;
+                    image[index] *= 1.0 - transmission * (1.0 - libm::exp(-depth));
+                } else {
+                    image[index] += norm * w * wy * visible;
+                }
             }
         }
     }

@@ -1,14 +1,17 @@
-//! Named scenarios: the three clips of the source paper's Table 1, and a few that stress what
+//! Named scenarios: the three clips of the source paper's Table 1, a few that stress what
 //! Table 1 does not (a clear sky with terrain, a projectile flying at the camera, low contrast
-//! with a bright plume).
+//! with a bright plume), and the clutter of real range footage (a faint body under a bright
+//! plume among cloud filaments, terrain entering the chip with a second object, and everything
+//! randomized), with the physics drawn per clip from stated ranges.
 
 use super::scenario::{
-    AttitudeConfig, CameraConfig, ClipConfig, PlumeConfig, ProjectileConfig, Scenario, SceneConfig,
-    SensorConfig, TrajectoryConfig, Weather,
+    AttitudeConfig, CameraConfig, ClipConfig, FilamentsConfig, NearTerrainConfig, PlumeConfig,
+    ProjectileConfig, RandomizeConfig, Scenario, SceneConfig, SecondObjectConfig, SensorConfig,
+    TrajectoryConfig, Weather,
 };
 
 /// Every preset: name and one line on what it is.
-pub const PRESETS: [(&str, &str); 6] = [
+pub const PRESETS: [(&str, &str); 9] = [
     (
         "table1-train",
         "Table 1 training clip: 40 deg launch, 17:00, cloudy, seed 539662031, 175 frames",
@@ -33,6 +36,20 @@ pub const PRESETS: [(&str, &str); 6] = [
         "low-contrast-plume",
         "hazy overcast dusk, pale body close to the sky, bright flickering plume over the tail",
     ),
+    (
+        "clutter-faint-plume",
+        "body 3-5 noise sigmas darker than the sky, brighter plume over the tail, dark filaments, \
+         haze, PSF 0.5-1.5 px, all drawn per clip",
+    ),
+    (
+        "clutter-terrain",
+        "a hillside entering from the chip's lower edge, dark filaments, a bird or a second \
+         projectile crossing, body 3-8 sigma, drawn per clip",
+    ),
+    (
+        "clutter-random",
+        "every clutter range at once, both polarities of body and plume: a different look per seed",
+    ),
 ];
 
 /// The preset called `name`.
@@ -44,6 +61,9 @@ pub fn preset(name: &str) -> Option<Scenario> {
         "clear-sky" => clear_sky(),
         "towards-camera" => towards_camera(),
         "low-contrast-plume" => low_contrast_plume(),
+        "clutter-faint-plume" => clutter_faint_plume(20240904),
+        "clutter-terrain" => clutter_terrain(20240905),
+        "clutter-random" => clutter_random(20240906),
         _ => return None,
     };
     Some(scenario)
@@ -75,6 +95,10 @@ fn table1(launch_angle_deg: f64, time_of_day: &str, seed: u64) -> Scenario {
         },
         plume: PlumeConfig::default(),
         sensor: SensorConfig::default(),
+        filaments: FilamentsConfig::default(),
+        near_terrain: NearTerrainConfig::default(),
+        second_object: SecondObjectConfig::default(),
+        randomize: RandomizeConfig::default(),
     }
 }
 
@@ -120,6 +144,103 @@ fn low_contrast_plume() -> Scenario {
     s.plume.length_calibers = 8.0;
     s.plume.flicker = 0.45;
     s.sensor.psf_sigma_px = 1.1;
+    s
+}
+
+/// The randomized sensor and haze every clutter preset shares: PSF 0.5-1.5 px (moving by up to
+/// 0.1 px per frame), read noise 10-30 e-, exposure 0.5-0.75 of full scale, visibility 3-15 km,
+/// the body's contrast moving by up to 10 % per frame.
+fn clutter_sensor() -> RandomizeConfig {
+    RandomizeConfig {
+        psf_sigma_px: Some([0.5, 1.5]),
+        read_noise_e: Some([10.0, 30.0]),
+        sky_level: Some([0.5, 0.75]),
+        visibility_m: Some([3000.0, 15000.0]),
+        frame_psf_jitter_px: Some(0.1),
+        frame_contrast_jitter: Some(0.1),
+        ..RandomizeConfig::default()
+    }
+}
+
+/// A faint body (3-5 noise sigmas darker than the sky) 5-7.5 px wide, a glowing plume over the
+/// tail several times brighter than the body is dark, two to five dark filaments as dark as the
+/// body (a third aimed through the chip centre), haze, PSF 0.5-1.5 px; 120 frames of the Table 1
+/// flight.
+pub fn clutter_faint_plume(seed: u64) -> Scenario {
+    let mut s = table1(39.0, "17:15", seed);
+    s.description = "Clutter: a faint body (3-5 sigma), a bright plume over the tail, dark cloud \
+                     filaments, haze, PSF 0.5-1.5 px, drawn per clip"
+        .into();
+    s.clip.frames = 120;
+    s.projectile.contrast_sigma = Some(4.0);
+    s.plume.flicker = 0.35;
+    s.filaments.count = 3;
+    s.randomize = RandomizeConfig {
+        contrast_sigma: Some([3.0, 5.0]),
+        plume_brightness: Some([0.15, 0.6]),
+        plume_length_calibers: Some([4.0, 9.0]),
+        plume_width_calibers: Some([0.3, 0.6]),
+        filament_count: Some([2, 5]),
+        ..clutter_sensor()
+    };
+    s
+}
+
+/// A hillside whose ridge enters from the chip's lower edge (10-25 % of the chip, rising slowly),
+/// one to four filaments, a bird or a second projectile crossing the chip, a body 3-8 sigma
+/// darker than what is behind it, the plume drawn per clip; 120 frames of the Table 1 flight.
+pub fn clutter_terrain(seed: u64) -> Scenario {
+    let mut s = table1(39.0, "17:15", seed);
+    s.description = "Clutter: terrain entering from the chip's lower edge, dark filaments, a \
+                     second object crossing, body 3-8 sigma, drawn per clip"
+        .into();
+    s.clip.frames = 120;
+    s.projectile.contrast_sigma = Some(5.0);
+    s.near_terrain = NearTerrainConfig {
+        enabled: true,
+        cover: 0.18,
+        relief: 0.08,
+        rise_px_per_frame: 0.1,
+        distance_m: 1500.0,
+    };
+    s.filaments.count = 2;
+    s.second_object.speed_px_per_frame = 6.0;
+    s.randomize = RandomizeConfig {
+        contrast_sigma: Some([3.0, 8.0]),
+        plume_brightness: Some([0.1, 0.8]),
+        plume_length_calibers: Some([3.0, 8.0]),
+        filament_count: Some([1, 4]),
+        near_terrain_cover: Some([0.1, 0.25]),
+        second_object_probability: Some(1.0),
+        ..clutter_sensor()
+    };
+    s
+}
+
+/// Every clutter range at once, so that each seed gives another look: body 3-8 sigma, dark or
+/// (one time in four) bright; plume bright or (one time in three) dark smoke, 0.05-0.8 strong;
+/// zero to six filaments, one in five in front of the body; terrain half the time; a second
+/// object half the time; the clutter sensor and haze ranges.
+pub fn clutter_random(seed: u64) -> Scenario {
+    let mut s = table1(39.0, "17:15", seed);
+    s.description = "Clutter: every range randomized per clip, both polarities".into();
+    s.clip.frames = 120;
+    s.projectile.contrast_sigma = Some(5.0);
+    s.near_terrain.rise_px_per_frame = 0.1;
+    s.filaments.in_front_fraction = 0.2;
+    s.randomize = RandomizeConfig {
+        contrast_sigma: Some([3.0, 8.0]),
+        bright_body_probability: Some(0.25),
+        plume_brightness: Some([0.05, 0.8]),
+        plume_length_calibers: Some([3.0, 10.0]),
+        plume_width_calibers: Some([0.25, 0.6]),
+        dark_plume_probability: Some(1.0 / 3.0),
+        filament_count: Some([0, 6]),
+        near_terrain_probability: Some(0.5),
+        near_terrain_cover: Some([0.1, 0.3]),
+        second_object_probability: Some(0.5),
+        ..clutter_sensor()
+    };
     s
 }
 

@@ -19,6 +19,12 @@ pub enum Purpose {
     Tracker = 5,
     /// Lattice keys of the procedural noise fields (clouds, terrain).
     Field = 6,
+    /// The clip-wide draws of a scenario's `[randomize]` ranges.
+    Randomize = 7,
+    /// The clip-wide layout of the clutter (filaments, second object).
+    Clutter = 8,
+    /// The per-frame jitter of the randomized physics (PSF, body contrast).
+    FrameJitter = 9,
 }
 
 /// The SplitMix64 finalizer: a bijective 64-bit mixing function.

@@ -1,8 +1,10 @@
-//! Renders one chip: background (sky, clouds, terrain), the shaded body from the supersampled
-//! z-buffer, the plume, the PSF; and the ground-truth mask (pixels at least half covered by the
-//! body alone, before any blur).
+//! Renders one chip: background (sky, clouds, terrain, the near hillside, the filaments behind the
+//! body, the second object), the shaded body from the supersampled z-buffer, the plume, the
+//! filaments in front of the body, the PSF; and the ground-truth mask (pixels at least half
+//! covered by the body alone, before any blur).
 
 use super::camera::{CameraPose, Intrinsics};
+use super::clutter::{FrameClutter, NoiseModel};
 use super::math::Vec3;
 use super::mesh::Mesh;
 use super::model::ProjectileModel;
@@ -40,6 +42,8 @@ pub struct FrameScene<'a> {
     pub psf_sigma_px: f64,
     /// Samples per pixel along each axis.
     pub supersampling: usize,
+    /// Filaments, the second object, the near hillside and the body's set contrast, if any.
+    pub clutter: Option<FrameClutter<'a>>,
 }
 
 /// One rendered chip before the sensor: radiance and the mask, row-major, chip-sized.
@@ -63,17 +67,22 @@ pub fn render(scene: &FrameScene) -> anyhow::Result<RenderedChip> {
     let k = scene.intrinsics;
 
     // Background along each pixel's ray.
+    let ridge = scene.clutter.and_then(|c| c.ridge);
     let mut image = Vec::with_capacity(ww * wh);
     for y in 0..wh {
         for x in 0..ww {
             let ray = k.ray((wx0 + x as i64) as f64, (wy0 + y as i64) as f64);
             let d = scene.camera.direction_to_world(ray).normalized();
-            image.push(
+            let near = ridge.and_then(|r| scene.environment.near_terrain(d, &r));
+            image.push(near.unwrap_or_else(|| {
                 scene
                     .environment
-                    .background(scene.camera.position, d, scene.time_s),
-            );
+                    .background(scene.camera.position, d, scene.time_s)
+            }));
         }
+    }
+    if let Some(clutter) = &scene.clutter {
+        clutter.draw(&mut image, (wx0, wy0, ww), scene.chip_origin, false);
     }
 
     // The body: project, shade per triangle, rasterize over its bounding box.
@@ -96,8 +105,20 @@ pub fn render(scene: &FrameScene) -> anyhow::Result<RenderedChip> {
             z: p.z,
         })
         .collect();
-    let shades = triangle_radiance(scene, &points);
     let samples = body_samples(&screen, (wx0, wy0, ww, wh), scene.supersampling, mesh);
+    let mut shades = triangle_radiance(scene, &points);
+    if let Some(clutter) = &scene.clutter
+        && let Some(contrast) = clutter.body_contrast_sigma
+    {
+        set_contrast(
+            &mut shades,
+            &image,
+            (wx0, wy0, ww),
+            &samples,
+            contrast,
+            &clutter.noise,
+        );
+    }
     let s2 = samples.samples_per_pixel() as f64;
     let (bx0, by0) = samples.origin();
     let (bw, bh) = samples.size();
@@ -127,6 +148,10 @@ pub fn render(scene: &FrameScene) -> anyhow::Result<RenderedChip> {
         &samples,
         transmission,
     );
+
+    if let Some(clutter) = &scene.clutter {
+        clutter.draw(&mut image, (wx0, wy0, ww), scene.chip_origin, true);
+    }
 
     let radiance = blur_interior(&image, ww, wh, scene.psf_sigma_px, margin);
     let mut mask = vec![false; cw * ch];
@@ -168,6 +193,68 @@ fn triangle_radiance(scene: &FrameScene, points: &[Vec3]) -> Vec<f64> {
             lit * transmission + airlight * (1.0 - transmission)
         })
         .collect()
+}
+
+/// Share of the body's contrast that its shading spreads about the mean, either way.
+const SHADING_SPREAD: f64 = 0.3;
+
+/// Sets the body's radiance so that its mean over the visible samples differs from the mean
+/// background behind it (`image` before the body) by `contrast` noise sigmas at that background,
+/// keeping the Lambertian shading's pattern across the triangles as a spread of
+/// [`SHADING_SPREAD`] of the contrast.
+fn set_contrast(
+    shades: &mut [f64],
+    image: &[f64],
+    (wx0, wy0, ww): (i64, i64, usize),
+    samples: &SampleBuffer,
+    contrast: f64,
+    noise: &NoiseModel,
+) {
+    let mut counts = vec![0usize; shades.len()];
+    let (mut behind, mut weight) = (0.0, 0.0);
+    let (bx0, by0) = samples.origin();
+    let (bw, bh) = samples.size();
+    for py in 0..bh {
+        for px in 0..bw {
+            let mut covered = 0usize;
+            for (t, _) in samples.pixel_samples(px, py) {
+                if let Some(t) = t {
+                    counts[t as usize] += 1;
+                    covered += 1;
+                }
+            }
+            if covered > 0 {
+                let (x, y) = (bx0 + px as i64 - wx0, by0 + py as i64 - wy0);
+                behind += covered as f64 * image[y as usize * ww + x as usize];
+                weight += covered as f64;
+            }
+        }
+    }
+    if weight == 0.0 {
+        return;
+    }
+    let background = behind / weight;
+    let mean = counts
+        .iter()
+        .zip(shades.iter())
+        .map(|(&n, &s)| n as f64 * s)
+        .sum::<f64>()
+        / weight;
+    let spread = counts
+        .iter()
+        .zip(shades.iter())
+        .filter(|(n, _)| **n > 0)
+        .map(|(_, &s)| (s - mean).abs())
+        .fold(0.0, f64::max);
+    let delta = contrast * noise.sigma(background);
+    for s in shades.iter_mut() {
+        let pattern = if spread > 0.0 {
+            (*s - mean) / spread
+        } else {
+            0.0
+        };
+        *s = (background + delta + SHADING_SPREAD * delta.abs() * pattern).max(0.0);
+    }
 }
 
 /// Rasterizes the mesh into a sample buffer over its bounding box within the window.

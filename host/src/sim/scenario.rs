@@ -38,6 +38,47 @@ pub struct Scenario {
     /// Optics, noise, quantization and the range sensor.
     #[serde(default)]
     pub sensor: SensorConfig,
+    /// Thin dark cloud filaments and streaks across the chip (none by default).
+    #[serde(default, skip_serializing_if = "FilamentsConfig::is_off")]
+    pub filaments: FilamentsConfig,
+    /// A hillside whose ridge enters the chip from its lower edge (off by default).
+    #[serde(default, skip_serializing_if = "NearTerrainConfig::is_off")]
+    pub near_terrain: NearTerrainConfig,
+    /// A second object crossing the chip: a bird or another projectile (none by default).
+    #[serde(default, skip_serializing_if = "SecondObjectConfig::is_off")]
+    pub second_object: SecondObjectConfig,
+    /// Ranges the physics is drawn from, per clip, from the seed (nothing drawn by default).
+    #[serde(default, skip_serializing_if = "RandomizeConfig::is_off")]
+    pub randomize: RandomizeConfig,
+}
+
+/// Which way a body or a plume differs from what is behind it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Polarity {
+    /// Darker than the background.
+    #[default]
+    Dark,
+    /// Brighter than the background.
+    Bright,
+}
+
+impl Polarity {
+    /// -1 for dark, +1 for bright.
+    pub fn sign(self) -> f64 {
+        match self {
+            Polarity::Dark => -1.0,
+            Polarity::Bright => 1.0,
+        }
+    }
+
+    fn is_dark(&self) -> bool {
+        *self == Polarity::Dark
+    }
+
+    fn is_bright(&self) -> bool {
+        *self == Polarity::Bright
+    }
 }
 
 /// Frames and timing.
@@ -79,6 +120,17 @@ pub struct ProjectileConfig {
     pub mesh_scale: f64,
     /// Lambertian albedo of the paint, 0..1.
     pub albedo: f64,
+    /// When given: the body's mean contrast against the background behind it, in units of the
+    /// per-pixel noise sigma (shot, read and quantization noise) at that background's level, at
+    /// the camera (after haze, before the PSF). The albedo's Lambertian shading then only sets the
+    /// pattern across the body (its spread is 30 % of the contrast). Absent: the albedo alone
+    /// decides.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub contrast_sigma: Option<f64>,
+    /// With `contrast_sigma`: whether the body is darker ("dark") or brighter ("bright") than the
+    /// background.
+    #[serde(skip_serializing_if = "Polarity::is_dark")]
+    pub polarity: Polarity,
 }
 
 impl Default for ProjectileConfig {
@@ -88,6 +140,8 @@ impl Default for ProjectileConfig {
             mesh: None,
             mesh_scale: 1.0,
             albedo: 0.12,
+            contrast_sigma: None,
+            polarity: Polarity::Dark,
         }
     }
 }
@@ -280,6 +334,11 @@ pub struct PlumeConfig {
     pub width_calibers: f64,
     /// Log-normal spread of the frame-to-frame intensity flicker.
     pub flicker: f64,
+    /// "bright": glowing exhaust that adds `brightness` of radiance; "dark": smoke that absorbs,
+    /// `brightness` then being the optical depth at the core (exp(-depth) of the background
+    /// passes).
+    #[serde(skip_serializing_if = "Polarity::is_bright")]
+    pub polarity: Polarity,
 }
 
 impl Default for PlumeConfig {
@@ -290,7 +349,212 @@ impl Default for PlumeConfig {
             length_calibers: 5.0,
             width_calibers: 0.35,
             flicker: 0.3,
+            polarity: Polarity::Bright,
         }
+    }
+}
+
+/// Thin dark cloud filaments and streaks, drawn in chip coordinates (the tracker holds the chip on
+/// the target, so distant cloud moves slowly across it). Each filament is a slightly bowed line
+/// with a Gaussian cross-section, tapered ends and a streaky, broken core; it drifts by a constant
+/// velocity per written frame. Never part of the mask.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FilamentsConfig {
+    /// Number of filaments in each chip (0: none).
+    pub count: u32,
+    /// Range [lo, hi] of each filament's depth at its core, in per-pixel noise sigmas at the
+    /// local background (the scale of `projectile.contrast_sigma`, so "as dark as the body").
+    pub darkness_sigma: [f64; 2],
+    /// Range of the Gaussian sigma of each filament's cross-section, px.
+    pub width_px: [f64; 2],
+    /// Range of each filament's length, in chip widths.
+    pub length_chips: [f64; 2],
+    /// Largest bow of a filament off its chord, px.
+    pub bow_px: f64,
+    /// Largest drift speed of a filament, px per written frame (each draws its own velocity).
+    pub drift_px_per_frame: f64,
+    /// Fraction of the filaments aimed through the chip centre, where the tracker holds the body.
+    pub through_centre_fraction: f64,
+    /// Fraction of the filaments drawn in front of the body (the others pass behind it).
+    pub in_front_fraction: f64,
+}
+
+impl Default for FilamentsConfig {
+    fn default() -> Self {
+        FilamentsConfig {
+            count: 0,
+            darkness_sigma: [3.0, 5.0],
+            width_px: [0.8, 2.5],
+            length_chips: [0.4, 1.4],
+            bow_px: 12.0,
+            drift_px_per_frame: 0.4,
+            through_centre_fraction: 0.35,
+            in_front_fraction: 0.0,
+        }
+    }
+}
+
+impl FilamentsConfig {
+    fn is_off(&self) -> bool {
+        *self == FilamentsConfig::default()
+    }
+}
+
+/// A hillside nearer than the projectile whose ridge line enters the chip from its lower edge,
+/// as when the line of sight grazes the terrain. The ridge's level is held relative to the chip
+/// (so it stays in view), while its shape and texture are fixed in azimuth and elevation, so they
+/// pan across the chip as the mount follows the projectile. Never part of the mask. (The horizon
+/// hills of `scene.terrain_max_elevation_deg` sit at fixed elevations, so they are behind the
+/// chip only while the projectile is that low, e.g. the first frames of `clear-sky`.)
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NearTerrainConfig {
+    /// Whether the hillside is there.
+    pub enabled: bool,
+    /// Mean height of the ridge above the chip's lower edge at the first frame, as a fraction of
+    /// the chip height.
+    pub cover: f64,
+    /// Peak-to-mean up-and-down of the ridge line, as a fraction of the chip height.
+    pub relief: f64,
+    /// How fast the ridge rises in the chip, px per written frame (negative: it sinks).
+    pub rise_px_per_frame: f64,
+    /// Distance to the hillside, m (its haze, with `scene.visibility_m`).
+    pub distance_m: f64,
+}
+
+impl Default for NearTerrainConfig {
+    fn default() -> Self {
+        NearTerrainConfig {
+            enabled: false,
+            cover: 0.2,
+            relief: 0.08,
+            rise_px_per_frame: 0.0,
+            distance_m: 1500.0,
+        }
+    }
+}
+
+impl NearTerrainConfig {
+    fn is_off(&self) -> bool {
+        *self == NearTerrainConfig::default()
+    }
+}
+
+/// What the second object is.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SecondObjectKind {
+    /// No second object.
+    #[default]
+    None,
+    /// A bird-sized blob whose wings beat.
+    Bird,
+    /// Another projectile: an elongated capsule flying along its length.
+    Projectile,
+}
+
+/// A second object crossing the chip on a straight line at constant speed (chip coordinates),
+/// through a random point of the chip's middle at a random frame of the clip. It passes behind
+/// the body and is never part of the mask.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SecondObjectConfig {
+    /// "none", "bird" or "projectile".
+    pub kind: SecondObjectKind,
+    /// Bird: wingspan, px; projectile: body width, px.
+    pub size_px: f64,
+    /// Projectile only: its length, px.
+    pub length_px: f64,
+    /// Contrast against the background, in per-pixel noise sigmas.
+    pub contrast_sigma: f64,
+    /// Whether it is darker or brighter than the background.
+    pub polarity: Polarity,
+    /// Speed across the chip, px per written frame.
+    pub speed_px_per_frame: f64,
+}
+
+impl Default for SecondObjectConfig {
+    fn default() -> Self {
+        SecondObjectConfig {
+            kind: SecondObjectKind::None,
+            size_px: 8.0,
+            length_px: 50.0,
+            contrast_sigma: 6.0,
+            polarity: Polarity::Dark,
+            speed_px_per_frame: 8.0,
+        }
+    }
+}
+
+impl SecondObjectConfig {
+    fn is_off(&self) -> bool {
+        *self == SecondObjectConfig::default()
+    }
+}
+
+/// Ranges the physics is drawn from, once per clip, from the seed: each given key replaces the
+/// value set elsewhere in the scenario with a uniform draw from [lo, hi] (or a coin with the given
+/// probability). Absent keys leave their values alone. The draws come in a fixed order from their
+/// own stream, so adding a key does not change the others' draws. Two keys vary per frame.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RandomizeConfig {
+    /// `projectile.contrast_sigma`, noise sigmas.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub contrast_sigma: Option<[f64; 2]>,
+    /// Probability that the body is bright (`projectile.polarity`), 0..1.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bright_body_probability: Option<f64>,
+    /// `sensor.psf_sigma_px`, px.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub psf_sigma_px: Option<[f64; 2]>,
+    /// `sensor.read_noise_e`, electrons rms.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub read_noise_e: Option<[f64; 2]>,
+    /// `sensor.sky_level` (the exposure, and so the shot noise), fraction of full scale.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sky_level: Option<[f64; 2]>,
+    /// `plume.brightness` (radiance over the horizon sky; optical depth for a dark plume).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plume_brightness: Option<[f64; 2]>,
+    /// `plume.length_calibers`, body diameters.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plume_length_calibers: Option<[f64; 2]>,
+    /// `plume.width_calibers`, body diameters.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plume_width_calibers: Option<[f64; 2]>,
+    /// Probability that the plume is dark smoke (`plume.polarity`), 0..1.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dark_plume_probability: Option<f64>,
+    /// `filaments.count`, drawn as a whole number in [lo, hi].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub filament_count: Option<[u32; 2]>,
+    /// Probability that the near hillside is there (`near_terrain.enabled`), 0..1.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub near_terrain_probability: Option<f64>,
+    /// `near_terrain.cover`, fraction of the chip height.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub near_terrain_cover: Option<[f64; 2]>,
+    /// `scene.visibility_m` (haze), m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub visibility_m: Option<[f64; 2]>,
+    /// Probability of a second object, 0..1; its kind is `second_object.kind`, or a bird or a
+    /// projectile with even odds when that is "none".
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub second_object_probability: Option<f64>,
+    /// Per frame: the PSF sigma moves by up to this much either way (turbulence), px.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frame_psf_jitter_px: Option<f64>,
+    /// Per frame: the body's `contrast_sigma` scales by up to this fraction either way
+    /// (scintillation, changing light).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frame_contrast_jitter: Option<f64>,
+}
+
+impl RandomizeConfig {
+    fn is_off(&self) -> bool {
+        *self == RandomizeConfig::default()
     }
 }
 
@@ -512,8 +776,142 @@ impl Scenario {
             n.range_noise_m.is_finite() && n.range_noise_m >= 0.0,
             "sensor.range_noise_m must be >= 0"
         );
+        if let Some(c) = p.contrast_sigma {
+            ensure!(
+                (0.0..=1000.0).contains(&c),
+                "projectile.contrast_sigma must be in [0, 1000]"
+            );
+        }
+        self.validate_clutter()
+    }
+
+    /// The clutter sections and the randomize ranges.
+    fn validate_clutter(&self) -> anyhow::Result<()> {
+        let f = &self.filaments;
+        ensure!(f.count <= 64, "filaments.count must be at most 64");
+        range(f.darkness_sigma, 0.0, 1000.0, "filaments.darkness_sigma")?;
+        range(f.width_px, 0.1, 50.0, "filaments.width_px")?;
+        range(f.length_chips, 0.01, 10.0, "filaments.length_chips")?;
+        ensure!(
+            (0.0..=200.0).contains(&f.bow_px),
+            "filaments.bow_px must be in [0, 200]"
+        );
+        ensure!(
+            (0.0..=50.0).contains(&f.drift_px_per_frame),
+            "filaments.drift_px_per_frame must be in [0, 50]"
+        );
+        ensure!(
+            (0.0..=1.0).contains(&f.through_centre_fraction)
+                && (0.0..=1.0).contains(&f.in_front_fraction),
+            "filaments fractions must be in [0, 1]"
+        );
+        let t = &self.near_terrain;
+        ensure!(
+            (0.0..=1.0).contains(&t.cover) && (0.0..=1.0).contains(&t.relief),
+            "near_terrain.cover and relief must be in [0, 1]"
+        );
+        ensure!(
+            (-50.0..=50.0).contains(&t.rise_px_per_frame),
+            "near_terrain.rise_px_per_frame must be in [-50, 50]"
+        );
+        ensure!(
+            positive(t.distance_m),
+            "near_terrain.distance_m must be positive"
+        );
+        let o = &self.second_object;
+        ensure!(
+            (0.5..=200.0).contains(&o.size_px) && (0.5..=1000.0).contains(&o.length_px),
+            "second_object.size_px must be in [0.5, 200] and length_px in [0.5, 1000]"
+        );
+        ensure!(
+            (0.0..=1000.0).contains(&o.contrast_sigma),
+            "second_object.contrast_sigma must be in [0, 1000]"
+        );
+        ensure!(
+            (0.0..=100.0).contains(&o.speed_px_per_frame),
+            "second_object.speed_px_per_frame must be in [0, 100]"
+        );
+        let r = &self.randomize;
+        let opt = |v: Option<[f64; 2]>, lo: f64, hi: f64, name: &str| match v {
+            Some(v) => range(v, lo, hi, name),
+            None => Ok(()),
+        };
+        let prob = |v: Option<f64>, name: &str| match v {
+            Some(p) => {
+                ensure!((0.0..=1.0).contains(&p), "{name} must be in [0, 1]");
+                Ok(())
+            }
+            None => Ok(()),
+        };
+        opt(r.contrast_sigma, 0.0, 1000.0, "randomize.contrast_sigma")?;
+        opt(r.psf_sigma_px, 0.0, 5.0, "randomize.psf_sigma_px")?;
+        opt(r.read_noise_e, 0.0, 1e6, "randomize.read_noise_e")?;
+        opt(r.sky_level, 0.01, 0.99, "randomize.sky_level")?;
+        opt(
+            r.plume_brightness,
+            0.0,
+            1000.0,
+            "randomize.plume_brightness",
+        )?;
+        opt(
+            r.plume_length_calibers,
+            0.01,
+            1000.0,
+            "randomize.plume_length_calibers",
+        )?;
+        opt(
+            r.plume_width_calibers,
+            0.01,
+            1000.0,
+            "randomize.plume_width_calibers",
+        )?;
+        opt(
+            r.near_terrain_cover,
+            0.0,
+            1.0,
+            "randomize.near_terrain_cover",
+        )?;
+        opt(r.visibility_m, 1.0, 1e9, "randomize.visibility_m")?;
+        prob(
+            r.bright_body_probability,
+            "randomize.bright_body_probability",
+        )?;
+        prob(r.dark_plume_probability, "randomize.dark_plume_probability")?;
+        prob(
+            r.near_terrain_probability,
+            "randomize.near_terrain_probability",
+        )?;
+        prob(
+            r.second_object_probability,
+            "randomize.second_object_probability",
+        )?;
+        if let Some([lo, hi]) = r.filament_count {
+            ensure!(
+                lo <= hi && hi <= 64,
+                "randomize.filament_count must be [lo, hi] with lo <= hi <= 64"
+            );
+        }
+        ensure!(
+            r.frame_psf_jitter_px
+                .is_none_or(|j| (0.0..=2.0).contains(&j)),
+            "randomize.frame_psf_jitter_px must be in [0, 2]"
+        );
+        ensure!(
+            r.frame_contrast_jitter
+                .is_none_or(|j| (0.0..=0.9).contains(&j)),
+            "randomize.frame_contrast_jitter must be in [0, 0.9]"
+        );
         Ok(())
     }
+}
+
+/// Checks that `[lo, hi]` is ordered and within [min, max].
+fn range([lo, hi]: [f64; 2], min: f64, max: f64, name: &str) -> anyhow::Result<()> {
+    ensure!(
+        lo.is_finite() && hi.is_finite() && min <= lo && lo <= hi && hi <= max,
+        "{name} must be [lo, hi] with {min} <= lo <= hi <= {max}"
+    );
+    Ok(())
 }
 
 fn positive(v: f64) -> bool {

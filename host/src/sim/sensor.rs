@@ -1,6 +1,7 @@
 //! From radiance to chip samples: the atmospheric and optical blur (a Gaussian PSF), the exposure,
 //! Poisson shot noise, Gaussian read noise and quantization to 8 or 16 bits.
 
+use super::clutter::NoiseModel;
 use super::random::Random;
 use super::scenario::SensorConfig;
 use crate::clip::ChipPixels;
@@ -81,6 +82,16 @@ impl Sensor {
             full_well: cfg.full_well_e,
             read_noise: cfg.read_noise_e,
             bit_depth: cfg.bit_depth,
+        }
+    }
+
+    /// The per-pixel noise of this sensor, in radiance units.
+    pub fn noise_model(&self) -> NoiseModel {
+        let max = if self.bit_depth == 16 { 65535.0 } else { 255.0 };
+        NoiseModel {
+            electrons_per_radiance: self.electrons_per_radiance,
+            read_noise_e: self.read_noise,
+            step_e: self.full_well / max,
         }
     }
 

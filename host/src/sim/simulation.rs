@@ -2,12 +2,14 @@
 //! depend on the thread count), and writes the `imade-clip/1` folder with its ground truth.
 
 use super::camera::Intrinsics;
+use super::clutter::{ClutterLayout, FrameClutter, RidgeLine};
 use super::math::Vec3;
 use super::model::ProjectileModel;
 use super::plan::{FramePlan, intrinsics, plan_frames};
 use super::plume::puffs;
 use super::random::{Purpose, Random};
-use super::render::{FrameScene, render};
+use super::randomize::{describe, frame_jitter, resolve};
+use super::render::{FrameScene, RenderedChip, render};
 use super::scenario::Scenario;
 use super::sensor::Sensor;
 use super::sky::Environment;
@@ -21,7 +23,11 @@ use std::path::Path;
 
 /// A scenario made ready to render.
 pub struct Simulation {
+    /// The scenario as given (written beside the clip).
     scenario: Scenario,
+    /// The scenario with its `[randomize]` ranges drawn: what is rendered.
+    resolved: Scenario,
+    clutter: ClutterLayout,
     model: ProjectileModel,
     intrinsics: Intrinsics,
     environment: Environment,
@@ -44,17 +50,21 @@ impl Simulation {
     /// Validates a scenario and plans its frames.
     pub fn new(scenario: Scenario) -> anyhow::Result<Simulation> {
         scenario.validate()?;
-        let model = ProjectileModel::from_config(&scenario.projectile)?;
-        let environment = Environment::new(&scenario.scene, scenario.seed)?;
-        let trajectory = Trajectory::new(&scenario.trajectory)?;
-        let plans = plan_frames(&scenario, &trajectory)?;
+        let resolved = resolve(&scenario);
+        resolved.validate().context("the randomized scenario")?;
+        let model = ProjectileModel::from_config(&resolved.projectile)?;
+        let environment = Environment::new(&resolved.scene, resolved.seed)?;
+        let trajectory = Trajectory::new(&resolved.trajectory)?;
+        let plans = plan_frames(&resolved, &trajectory)?;
         // Exposure: the clear sky behind the target in the first frame reads `sky_level`.
         let first = &plans[0];
         let line_of_sight = first.camera.r_cw.transpose() * first.body.translation.normalized();
-        let sensor = Sensor::new(&scenario.sensor, environment.clear_sky(line_of_sight));
+        let sensor = Sensor::new(&resolved.sensor, environment.clear_sky(line_of_sight));
         Ok(Simulation {
-            intrinsics: intrinsics(&scenario),
+            intrinsics: intrinsics(&resolved),
+            clutter: ClutterLayout::new(&resolved),
             scenario,
+            resolved,
             model,
             environment,
             trajectory,
@@ -73,16 +83,69 @@ impl Simulation {
         &self.model
     }
 
-    /// Renders frame `index` of the plan.
-    pub fn render_frame(&self, index: usize) -> anyhow::Result<RenderedFrame> {
+    /// The scenario with its `[randomize]` ranges drawn (what is rendered).
+    pub fn resolved(&self) -> &Scenario {
+        &self.resolved
+    }
+
+    /// The clip's clutter layout (filaments, second object).
+    pub fn clutter_layout(&self) -> &ClutterLayout {
+        &self.clutter
+    }
+
+    /// The clutter of frame `index` of the plan, or `None` when the scenario asks for none of it
+    /// (the plain scene of the original simulator).
+    pub fn frame_clutter(&self, index: usize) -> Option<FrameClutter<'_>> {
         let plan = &self.plans[index];
-        let seed = self.scenario.seed;
+        let s = &self.resolved;
+        let jitter = frame_jitter(s, plan.frame);
+        let body_contrast_sigma = jitter
+            .contrast_sigma
+            .map(|c| c * s.projectile.polarity.sign());
+        let ridge = s.near_terrain.enabled.then(|| {
+            let t = &s.near_terrain;
+            let (w, h) = (
+                f64::from(s.camera.chip_width),
+                f64::from(s.camera.chip_height),
+            );
+            let v = plan.chip_origin.1 as f64 + h
+                - 0.5
+                - (t.cover * h + t.rise_px_per_frame * index as f64);
+            let u = plan.chip_origin.0 as f64 + 0.5 * (w - 1.0);
+            let d = plan
+                .camera
+                .direction_to_world(self.intrinsics.ray(u, v))
+                .normalized();
+            RidgeLine {
+                base_elevation: libm::asin(d.z.clamp(-1.0, 1.0)),
+                relief: t.relief * h / s.camera.fy,
+                rad_per_px: 1.0 / s.camera.fy,
+                distance_m: t.distance_m,
+            }
+        });
+        if self.clutter.is_empty() && ridge.is_none() && body_contrast_sigma.is_none() {
+            return None;
+        }
+        Some(FrameClutter {
+            layout: &self.clutter,
+            index: index as f64,
+            noise: self.sensor.noise_model(),
+            body_contrast_sigma,
+            ridge,
+        })
+    }
+
+    /// Renders frame `index` of the plan before the sensor: radiance and mask.
+    pub fn render_radiance(&self, index: usize) -> anyhow::Result<RenderedChip> {
+        let plan = &self.plans[index];
+        let seed = self.resolved.seed;
         let frame_puffs = puffs(
-            &self.scenario.plume,
+            &self.resolved.plume,
             &self.model,
             &mut Random::new(seed, Purpose::Plume, plan.frame),
         );
-        let camera = &self.scenario.camera;
+        let camera = &self.resolved.camera;
+        let jitter = frame_jitter(&self.resolved, plan.frame);
         let scene = FrameScene {
             intrinsics: &self.intrinsics,
             camera: &plan.camera,
@@ -90,14 +153,23 @@ impl Simulation {
             chip_size: (camera.chip_width, camera.chip_height),
             model: &self.model,
             body: &plan.body,
-            albedo: self.scenario.projectile.albedo,
+            albedo: self.resolved.projectile.albedo,
             time_s: plan.time_s,
             environment: &self.environment,
             puffs: &frame_puffs,
-            psf_sigma_px: self.scenario.sensor.psf_sigma_px,
-            supersampling: self.scenario.sensor.supersampling as usize,
+            psf_sigma_px: jitter.psf_sigma_px,
+            supersampling: self.resolved.sensor.supersampling as usize,
+            clutter: self.frame_clutter(index),
         };
-        let rendered = render(&scene).with_context(|| format!("rendering frame {}", plan.frame))?;
+        render(&scene).with_context(|| format!("rendering frame {}", plan.frame))
+    }
+
+    /// Renders frame `index` of the plan.
+    pub fn render_frame(&self, index: usize) -> anyhow::Result<RenderedFrame> {
+        let plan = &self.plans[index];
+        let seed = self.resolved.seed;
+        let camera = &self.resolved.camera;
+        let rendered = self.render_radiance(index)?;
         let pixels = self.sensor.expose(
             &rendered.radiance,
             &mut Random::new(seed, Purpose::Sensor, plan.frame),
@@ -123,7 +195,7 @@ impl Simulation {
     /// Renders every frame on `threads` threads and writes the clip to `out`, with the resolved
     /// scenario beside it as `scenario.toml`. The bytes do not depend on `threads`.
     pub fn write_clip(&self, out: &Path, threads: usize) -> anyhow::Result<Summary> {
-        let camera = &self.scenario.camera;
+        let camera = &self.resolved.camera;
         let meta = ClipMeta {
             format: FORMAT_ID.to_string(),
             camera: CameraMeta {
@@ -139,7 +211,7 @@ impl Simulation {
                 height: camera.chip_height,
             },
             projectile: self.model.id.clone(),
-            frame_rate_hz: self.scenario.clip.frame_rate_hz,
+            frame_rate_hz: self.resolved.clip.frame_rate_hz,
         };
         let mut writer = ClipWriter::create(out, &meta)?;
         write_atomically(
@@ -252,6 +324,8 @@ pub struct Summary {
     pub chip_offset_px: Span,
     /// Mask pixels per frame.
     pub mask_px: Span,
+    /// What the `[randomize]` section drew, if the scenario has one.
+    pub randomized: Option<String>,
 }
 
 impl Summary {
@@ -268,6 +342,7 @@ impl Summary {
             pointing_offset_px: Span::empty(),
             chip_offset_px: Span::empty(),
             mask_px: Span::empty(),
+            randomized: (sim.resolved != sim.scenario).then(|| describe(&sim.resolved)),
         }
     }
 
@@ -286,7 +361,7 @@ impl Summary {
             .map(|p| p.x)
             .fold(f64::NEG_INFINITY, f64::max);
         let (a, b) = (along(nose_x), along(sim.model.tail_x));
-        let chip = &sim.scenario.camera;
+        let chip = &sim.resolved.camera;
         let centre = (
             plan.chip_origin.0 as f64 + 0.5 * (f64::from(chip.chip_width) - 1.0),
             plan.chip_origin.1 as f64 + 0.5 * (f64::from(chip.chip_height) - 1.0),
@@ -324,6 +399,10 @@ impl std::fmt::Display for Summary {
             "target off centre   {:.1} px (chip)",
             self.chip_offset_px
         )?;
-        write!(f, "mask                {:.0} px", self.mask_px)
+        write!(f, "mask                {:.0} px", self.mask_px)?;
+        if let Some(drawn) = &self.randomized {
+            write!(f, "\nrandomized          {drawn}")?;
+        }
+        Ok(())
     }
 }

@@ -5,6 +5,7 @@
 //! 1; the sensor's exposure turns it into electrons. Directions are unit vectors in W (east,
 //! north, up).
 
+use super::clutter::RidgeLine;
 use super::math::{Vec3, deg, lerp, rad, smoothstep};
 use super::noise::Fbm;
 use super::random::{Purpose, Random, mix64};
@@ -93,6 +94,8 @@ pub struct Environment {
     hills_max: f64,
     terrain_distance: f64,
     visibility: f64,
+    near_ridge: Fbm,
+    near_ground: Fbm,
 }
 
 /// Light falling on the body at one place and time.
@@ -149,6 +152,8 @@ impl Environment {
             hills_max: rad(cfg.terrain_max_elevation_deg),
             terrain_distance: cfg.terrain_distance_m,
             visibility: cfg.visibility_m,
+            near_ridge: fbm(key(), 7, 0.5),
+            near_ground: fbm(key(), 7, 0.6),
         })
     }
 
@@ -206,6 +211,34 @@ impl Environment {
         let lit = GROUND_ALBEDO * (self.sun_irradiance * self.sun.z.max(0.0) + SKY_AMBIENT);
         let ground = lit * (1.0 + 1.2 * texture);
         lerp(horizon_sky, ground, self.transmission(distance))
+    }
+
+    /// Radiance of the near hillside along the unit direction `d` (W) where it lies below this
+    /// frame's `ridge` line; `None` above the ridge. Its shape and texture are fixed in azimuth
+    /// and elevation (ridge features about 80 px wide, texture down to a few px), seen through
+    /// the haze of `ridge.distance_m`.
+    pub fn near_terrain(&self, d: Vec3, ridge: &RidgeLine) -> Option<f64> {
+        let (az, el) = (libm::atan2(d.x, d.y), libm::asin(d.z.clamp(-1.0, 1.0)));
+        let scale = ridge.rad_per_px;
+        let line = ridge.base_elevation
+            + ridge.relief * 5.0 * (self.near_ridge.at1(az / (80.0 * scale)) - 0.5);
+        if el >= line {
+            return None;
+        }
+        // A darker band of trees or rock along the crest, then textured slopes.
+        let below = (line - el) / scale;
+        let crest = 1.0 - 0.35 * libm::exp(-below / 6.0);
+        let texture = self
+            .near_ground
+            .at(az / (30.0 * scale), el / (30.0 * scale))
+            - 0.5;
+        let lit = GROUND_ALBEDO * (self.sun_irradiance * self.sun.z.max(0.0) + SKY_AMBIENT);
+        let ground = lit * crest * (1.0 + 1.6 * texture).max(0.05);
+        Some(lerp(
+            self.clear_sky(d),
+            ground,
+            self.transmission(ridge.distance_m),
+        ))
     }
 
     /// The light on a body at `point` (W) at time `t`: the sun is dimmed by any cloud between.
