@@ -3,7 +3,7 @@
 //! pipeline's own (how a range measurement is used).
 
 pub use crate::extremes::SilhouetteConfig;
-pub use crate::segment::DetectConfig;
+pub use crate::segment::{DetectConfig, SizeTolerance};
 pub use crate::table_match::{GuidedLoopConfig, GuidedMethod, MatchConfig};
 pub use crate::temporal::TemporalConfig;
 

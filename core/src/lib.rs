@@ -51,7 +51,7 @@ pub use camera::Camera;
 pub use chip::{ChipError, ChipView};
 pub use config::{
     BodyPolarity, Config, DetectConfig, GuidedLoopConfig, GuidedMethod, MatchConfig, RangeUse,
-    SilhouetteConfig, TemporalConfig,
+    SilhouetteConfig, SizeTolerance, TemporalConfig,
 };
 pub use extremes::Silhouette;
 pub use frame::{FrameError, FrameInput, FrameResult, ResultFault, Status};

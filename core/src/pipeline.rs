@@ -22,11 +22,11 @@ use crate::mask::BitMask;
 use crate::model::ProjectileModel;
 use crate::point::ImagePoint;
 use crate::pose::Pose;
-use crate::segment::{SegmentError, Segmenter, Target};
+use crate::segment::{ExpectedBody, SegmentError, Segmenter, Target};
 #[cfg(feature = "shape-guided")]
 use crate::table_match::guided_loop::LoopOutcome;
 use crate::table_match::{MatchedPose, Measurement, TableMatch};
-use crate::temporal::{Estimate, Observation, Temporal};
+use crate::temporal::{Estimate, Observation, Prediction, Temporal};
 
 /// A frame's input, checked: the range to use and the camera valid.
 struct CheckedInput<'a> {
@@ -131,7 +131,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             Err(e) => return FrameResult::from_error(e),
         };
         let prediction = self.temporal.predict(input.time_s, &self.config.temporal);
-        let measured = self.measure(&input, prediction.nose_dir);
+        let measured = self.measure(&input, &prediction);
         let observation = measured.as_ref().ok().map(|m| Observation {
             image_range_m: m.image_range_m(),
             nose_dir: m.hypothesis.silhouette.axis.dir,
@@ -156,18 +156,23 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         result
     }
 
-    /// The image work of one frame, stage by stage, up to the table match; `nose_dir` is the
-    /// nose's image direction of recent frames.
+    /// The image work of one frame, stage by stage, up to the table match; `prediction` is what
+    /// the recent frames expect of this one.
     fn measure(
         &mut self,
         input: &CheckedInput,
-        nose_dir: Option<ImagePoint>,
+        prediction: &Prediction,
     ) -> Result<Measurement, FrameError> {
         let (chip, config) = (input.chip, &self.config);
         let aim = ImagePoint::new(0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
+        let nose_dir = prediction.nose_dir;
+        let expected = input
+            .sensor_range_m
+            .or(prediction.range_m)
+            .and_then(|range_m| self.expected_body(range_m));
         let target = self
             .detect
-            .detect(chip, &config.detect, aim)
+            .detect(chip, &config.detect, aim, expected.as_ref())
             .inspect_err(|e| {
                 if let SegmentError::Capacity(_) = e {
                     self.detect.clear_mask();
@@ -195,6 +200,21 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             &self.model,
             &config.table_match,
         ))
+    }
+
+    /// The body's size in the chip at `range_m` m (None for a range that gives no finite size).
+    fn expected_body(&self, range_m: f32) -> Option<ExpectedBody> {
+        let px_per_m = self.camera.fx.min(self.camera.fy) / range_m;
+        let expected = ExpectedBody {
+            diameter_px: self.model.diameter_m * px_per_m,
+            span_px: 2.0 * self.model.max_radius_m() * px_per_m,
+            length_px: self.model.length_m * px_per_m,
+        };
+        let sizes = [expected.diameter_px, expected.span_px, expected.length_px];
+        sizes
+            .iter()
+            .all(|v| v.is_finite() && *v > 0.0)
+            .then_some(expected)
     }
 
     /// The silhouette stage on `target`.

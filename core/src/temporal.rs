@@ -52,6 +52,9 @@ pub struct Prediction {
     pub t: f32,
     /// The nose's image direction of the last frame with a pose, if any.
     pub nose_dir: Option<ImagePoint>,
+    /// The slant range expected at this frame from the recent ones (the last range in the
+    /// window carried along the trend), m; None before any.
+    pub range_m: Option<f32>,
 }
 
 /// One frame's observation for the temporal state.
@@ -143,9 +146,16 @@ impl Temporal {
     /// resets the state first.
     pub fn predict(&mut self, time_s: f64, config: &TemporalConfig) -> Prediction {
         let t = self.frame_time(time_s, config);
+        let slope = self.trend().map_or(0.0, |tr| tr.slope);
+        let range_m = self
+            .window
+            .back()
+            .map(|last| last.range + slope * (t - last.t))
+            .filter(|r| r.is_finite() && *r > 0.0);
         Prediction {
             t,
             nose_dir: self.nose_dir,
+            range_m,
         }
     }
 

@@ -9,7 +9,7 @@ use imade_core::lut::table::Table;
 use imade_core::mask::ChipMask;
 use imade_core::{
     BodyPolarity, Camera, Config, DetectConfig, FrameInput, GuidedLoopConfig, GuidedMethod,
-    MatchConfig, Pipeline, RangeUse, SilhouetteConfig, TemporalConfig,
+    MatchConfig, Pipeline, RangeUse, SilhouetteConfig, SizeTolerance, TemporalConfig,
 };
 use imade_core_fuzz::{oracle, reference, synth};
 use libfuzzer_sys::fuzz_target;
@@ -61,6 +61,9 @@ enum ConfigSpec {
         mask_margin_px: f32,
         /// The sky exclusion's minimum width, scale, margin and re-detection thresholds.
         sky_exclusion: [f32; 5],
+        /// The body size tolerance (min width, max width, max length, margin), the faint box
+        /// in diameters and its threshold.
+        body: [f32; 6],
         ignore_range: bool,
         /// The shape-guided method, modulo 3 (0: none).
         guided: u8,
@@ -156,6 +159,7 @@ fn config(spec: &ConfigSpec) -> Config {
             mask_margin_sigmas,
             mask_margin_px,
             sky_exclusion: x,
+            body: b,
             ignore_range,
             guided,
             shape_prior,
@@ -180,6 +184,14 @@ fn config(spec: &ConfigSpec) -> Config {
                 sky_exclusion_px: x[2],
                 redetect_sigma: x[3],
                 redetect_contrast: x[4],
+                body_size: SizeTolerance {
+                    min_width: b[0],
+                    max_width: b[1],
+                    max_length: b[2],
+                    margin_px: b[3],
+                },
+                faint_box_diameters: b[4],
+                faint_threshold_sigma: b[5],
             },
             silhouette: SilhouetteConfig {
                 half_length_sds: s[0],

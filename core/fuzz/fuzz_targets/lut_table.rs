@@ -96,6 +96,7 @@ fn prepared() -> &'static Prepared {
                 &view,
                 &Config::DEFAULT.detect,
                 ImagePoint::new(128.0, 128.0),
+                None,
             )
             .expect("the projectile is found");
         let background = segmenter.background().clone();

@@ -19,7 +19,8 @@ use crate::mask::BitMask;
 use crate::point::ImagePoint;
 use background::{Background, Region};
 use label::{LabelError, Labeler, Moments, Rect};
-use select::{Candidate, Selection, Shape};
+use select::{Candidate, Selection, Shape, UNIFORM_BAR_HALF_SDS};
+pub use select::{ExpectedBody, SizeTolerance};
 
 /// The detection stage's tunables.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -57,6 +58,15 @@ pub struct DetectConfig {
     /// first estimate to its own level), the corrected sky is kept and the chip detected again
     /// on it; otherwise the first estimate stands (a cloud's texture moves it less).
     pub redetect_contrast: f32,
+    /// Where the body's size is expected ([`ExpectedBody`]), how far a candidate's may stray
+    /// from it: a candidate outside it (a cloud filament, terrain, a plume) is not the body.
+    pub body_size: SizeTolerance,
+    /// Where no candidate has the body's size, the chip is labeled again on its mean over a box
+    /// this many body diameters wide (odd, 3 to [`label::MAX_BOX_PX`] px) ...
+    pub faint_box_diameters: f32,
+    /// ... at this many standard deviations of the box mean's noise (the noise over the box's
+    /// side): a faint body comes out whole.
+    pub faint_threshold_sigma: f32,
 }
 
 impl DetectConfig {
@@ -75,6 +85,14 @@ impl DetectConfig {
         sky_exclusion_px: 3.0,
         redetect_sigma: 3.0,
         redetect_contrast: 0.5,
+        body_size: SizeTolerance {
+            min_width: 0.5,
+            max_width: 1.6,
+            max_length: 1.3,
+            margin_px: 4.0,
+        },
+        faint_box_diameters: 0.6,
+        faint_threshold_sigma: 4.0,
     };
 }
 
@@ -84,8 +102,16 @@ impl Default for DetectConfig {
     }
 }
 
-/// A uniform bar's half-length (or half-width) in standard deviations of its mask: sqrt 3.
-const UNIFORM_BAR_HALF_SDS: f32 = 1.732;
+/// The side of the box a faint body of the `expected` size is looked for with, px: odd, 3 to
+/// [`label::MAX_BOX_PX`], or less than 3 for a body too thin for a box.
+fn faint_box_px(expected: &ExpectedBody, config: &DetectConfig) -> usize {
+    let side = config.faint_box_diameters * expected.diameter_px;
+    if side.is_nan() || side < 3.0 {
+        return 1;
+    }
+    let odd = ((side - 1.0) / 2.0) as usize * 2 + 1;
+    odd.min(label::MAX_BOX_PX)
+}
 
 /// The region a detected body of mask shape `shape` and its blur cover, for the sky model to
 /// leave out: the mask's extent ([`UNIFORM_BAR_HALF_SDS`]) scaled and grown by the config's sky
@@ -201,18 +227,21 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         self.mask.clear();
     }
 
-    /// Detects the target in `chip`, aiming near `aim` (chip px), and paints its mask.
+    /// Detects the target in `chip`, aiming near `aim` (chip px), and paints its mask. Where
+    /// the body's size is `expected`, only a candidate of that size is the target, and a body
+    /// too faint to stand out pixel by pixel is looked for at its own scale.
     pub fn detect(
         &mut self,
         chip: &ChipView,
         config: &DetectConfig,
         aim: ImagePoint,
+        expected: Option<&ExpectedBody>,
     ) -> Result<Target, SegmentError> {
         self.mask
             .reset(chip.width(), chip.height())
             .map_err(|_| SegmentError::Capacity(CapacityKind::Mask))?;
         self.background.estimate(chip);
-        let first = self.detect_on_sky(chip, config, aim)?;
+        let first = self.detect_on_sky(chip, config, aim, expected)?;
         if UNIFORM_BAR_HALF_SDS * 2.0 * first.shape.minor_sd < config.sky_exclusion_min_width_px {
             return Ok(first);
         }
@@ -224,7 +253,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             return Ok(first);
         }
         self.mask.clear();
-        self.detect_on_sky(chip, config, aim)
+        self.detect_on_sky(chip, config, aim, expected)
     }
 
     /// [`Segmenter::detect`] on the current sky model.
@@ -233,41 +262,75 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         chip: &ChipView,
         config: &DetectConfig,
         aim: ImagePoint,
+        expected: Option<&ExpectedBody>,
     ) -> Result<Target, SegmentError> {
-        // Clutter (a cloudy sky the sky model does not follow) can fill a table at the
-        // threshold; a target stands out at a higher one, so it is doubled and the chip labeled
-        // again, a few times at most.
-        let mut threshold = config.threshold_sigma * self.background.sigma();
-        let mut retries = config.retries;
-        let mut candidates = heapless::Vec::new();
-        loop {
-            match self.candidates(chip, threshold, config.min_area_px, &mut candidates) {
-                Err(SegmentError::Capacity(_)) if retries > 0 => {
-                    retries -= 1;
-                    threshold *= 2.0;
-                }
-                other => break other?,
-            }
-        }
+        let sigma = self.background.sigma();
         let diag = libm::hypotf(chip.width() as f32, chip.height() as f32);
-        let selection = select::select(
-            &candidates,
-            self.background.sigma(),
-            aim,
-            diag,
-            config.polarity,
-        )
-        .ok_or(SegmentError::NoTarget)?;
+        let fits = |m: &Moments| expected.is_none_or(|e| e.fits(m, &config.body_size));
+        let select = |candidates: &heapless::Vec<Candidate, MAX_COMPONENTS>,
+                      accept: &dyn Fn(&Moments) -> bool| {
+            select::select(candidates, sigma, aim, diag, config.polarity, accept)
+        };
+        let mut candidates = heapless::Vec::new();
+        let threshold = config.threshold_sigma * sigma;
+        self.labeled_candidates(chip, config, threshold, 1, &mut candidates)?;
+        // The most significant candidate, as the source paper picks it, where it has the body's
+        // size; else the best of those that have.
+        let selection = match select(&candidates, &|_| true) {
+            Some(s) if fits(&s.moments) => Some(s),
+            Some(_) => select(&candidates, &fits),
+            None => None,
+        };
+        if let Some(selection) = selection {
+            paint(&self.labeler, &selection.parts, &mut self.mask);
+            return Ok(target_of(&selection, candidates.len()));
+        }
+        // No candidate of the body's size: the body may be too faint to stand out pixel by
+        // pixel; it is looked for at its own scale.
+        let box_px = expected.map_or(1, |e| faint_box_px(e, config));
+        if box_px < 3 {
+            return Err(SegmentError::NoTarget);
+        }
+        let threshold = config.faint_threshold_sigma * sigma / box_px as f32;
+        self.labeled_candidates(chip, config, threshold, box_px, &mut candidates)?;
+        let selection = select(&candidates, &fits).ok_or(SegmentError::NoTarget)?;
         paint(&self.labeler, &selection.parts, &mut self.mask);
         Ok(target_of(&selection, candidates.len()))
     }
 
-    /// Labels the whole chip at `threshold` grey levels from the sky, either side, and lists
-    /// the components of at least `min_area` px in `candidates`.
+    /// The components of at least the minimum area of the chip labeled at `threshold` grey
+    /// levels from the sky, either side, on its `box_px` box mean ([`Labeler::label_box`]).
+    /// Clutter (a cloudy sky the sky model does not follow) can fill a table at the threshold; a
+    /// target stands out at a higher one, so it is doubled and the chip labeled again, a few
+    /// times at most.
+    fn labeled_candidates(
+        &mut self,
+        chip: &ChipView,
+        config: &DetectConfig,
+        threshold: f32,
+        box_px: usize,
+        candidates: &mut heapless::Vec<Candidate, MAX_COMPONENTS>,
+    ) -> Result<(), SegmentError> {
+        let mut threshold = threshold;
+        let mut retries = config.retries;
+        loop {
+            match self.candidates(chip, threshold, box_px, config.min_area_px, candidates) {
+                Err(SegmentError::Capacity(_)) if retries > 0 => {
+                    retries -= 1;
+                    threshold *= 2.0;
+                }
+                other => return other,
+            }
+        }
+    }
+
+    /// Labels the whole chip at `threshold` grey levels from the sky, either side, on its
+    /// `box_px` box mean, and lists the components of at least `min_area` px in `candidates`.
     fn candidates(
         &mut self,
         chip: &ChipView,
         threshold: f32,
+        box_px: usize,
         min_area: u32,
         candidates: &mut heapless::Vec<Candidate, MAX_COMPONENTS>,
     ) -> Result<(), SegmentError> {
@@ -278,15 +341,16 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             x1: chip.width() as u16,
             y1: chip.height() as u16,
         };
-        self.labeler.label(chip, &self.background, whole, |r| {
-            if r > threshold {
-                1
-            } else if r < -threshold {
-                -1
-            } else {
-                0
-            }
-        })?;
+        self.labeler
+            .label_box(chip, &self.background, whole, box_px, |r| {
+                if r > threshold {
+                    1
+                } else if r < -threshold {
+                    -1
+                } else {
+                    0
+                }
+            })?;
         for (label, moments) in self.labeler.components() {
             if moments.n >= min_area {
                 candidates
@@ -408,5 +472,73 @@ fn target_of(selection: &Selection, components: usize) -> Target {
         shape: Shape::of(&selection.moments),
         parts: selection.parts.len() as u8,
         components: components as u16,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Terrain (a dark band 12 px high across the bottom of the chip) and a dark bar 6 px wide and
+    /// 80 px long: the terrain is the most significant component, the bar the one of the body's
+    /// size. Without an expected size the terrain is taken; with it, the bar.
+    #[test]
+    fn the_candidate_of_the_bodys_size_wins_over_terrain() {
+        let (w, h) = (160usize, 128usize);
+        let mut data = [150u8; 160 * 128];
+        for y in 0..h {
+            for x in 0..w {
+                let terrain = y >= 116;
+                let bar = (40..46).contains(&y) && (40..120).contains(&x);
+                if terrain || bar {
+                    data[y * w + x] = 60;
+                }
+            }
+        }
+        // A little texture so the noise estimate is not at its floor.
+        for (i, v) in data.iter_mut().enumerate() {
+            *v = v.wrapping_add((i * 7 % 5) as u8);
+        }
+        let chip = ChipView::gray8(&data, w, h, w, 0, 0).unwrap();
+        let aim = ImagePoint::new(80.0, 64.0);
+        let config = DetectConfig::DEFAULT;
+        let mut segmenter: Segmenter = Segmenter::new();
+        let blind = segmenter.detect(&chip, &config, aim, None).unwrap();
+        assert!(blind.shape.centre.y > 116.0, "{:?}", blind.shape);
+        let expected = ExpectedBody {
+            diameter_px: 6.0,
+            span_px: 12.0,
+            length_px: 90.0,
+        };
+        let target = segmenter
+            .detect(&chip, &config, aim, Some(&expected))
+            .unwrap();
+        assert!(
+            (target.shape.centre.y - 42.5).abs() < 1.0
+                && (target.shape.centre.x - 79.5).abs() < 1.0,
+            "{:?}",
+            target.shape
+        );
+    }
+
+    /// The box side for a faint body: odd, from 3 px, at most the labeler's largest; none for a
+    /// body too thin.
+    #[test]
+    fn the_faint_box_follows_the_body_diameter() {
+        let config = DetectConfig::DEFAULT;
+        let side = |d: f32| {
+            let e = ExpectedBody {
+                diameter_px: d,
+                span_px: 2.0 * d,
+                length_px: 17.0 * d,
+            };
+            faint_box_px(&e, &config)
+        };
+        assert_eq!(side(3.0), 1);
+        assert_eq!(side(5.0), 3);
+        assert_eq!(side(7.5), 3);
+        assert_eq!(side(9.0), 5);
+        assert_eq!(side(40.0), label::MAX_BOX_PX);
+        assert_eq!(side(f32::NAN), 1);
     }
 }

@@ -59,6 +59,49 @@ impl Shape {
     }
 }
 
+/// The body's expected size in the chip, from the model, the camera and a range (the range
+/// sensor's or the track's): what a candidate must look like to be the projectile.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ExpectedBody {
+    /// Body diameter, px.
+    pub diameter_px: f32,
+    /// Largest width, fins included, px.
+    pub span_px: f32,
+    /// Overall length seen broadside (the longest it can look), px.
+    pub length_px: f32,
+}
+
+/// How far a candidate's size may stray from the expected body's and still be it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SizeTolerance {
+    /// Narrowest: this fraction of the body diameter.
+    pub min_width: f32,
+    /// Widest: this fraction of the span (fins included) ...
+    pub max_width: f32,
+    /// Longest: this fraction of the broadside length ...
+    pub max_length: f32,
+    /// ... each plus this many px (the blur and the threshold's reach beyond the edge).
+    pub margin_px: f32,
+}
+
+impl ExpectedBody {
+    /// Whether a component of these `moments` has the body's size, within `tolerance`: its
+    /// width and length are those of a uniform bar with its standard deviations.
+    pub fn fits(&self, moments: &Moments, tolerance: &SizeTolerance) -> bool {
+        let shape = Shape::of(moments);
+        let width = 2.0 * UNIFORM_BAR_HALF_SDS * shape.minor_sd;
+        let length = 2.0 * UNIFORM_BAR_HALF_SDS * shape.major_sd;
+        width >= tolerance.min_width * self.diameter_px
+            && width <= tolerance.max_width * self.span_px + tolerance.margin_px
+            && length <= tolerance.max_length * self.length_px + tolerance.margin_px
+    }
+}
+
+/// A uniform bar's half-length (or half-width) in standard deviations of its mask: sqrt 3.
+pub const UNIFORM_BAR_HALF_SDS: f32 = 1.732;
+
 /// The selected target: its parts and their combined statistics.
 #[derive(Debug, Clone)]
 pub struct Selection {
@@ -101,7 +144,8 @@ fn adjacent(a: &Moments, b: &Moments, gap: f32) -> bool {
     dx * dx + dy * dy <= gap * gap
 }
 
-/// Selects the projectile among `candidates` (at most [`MAX_COMPONENTS`]).
+/// Selects the projectile among the `candidates` (at most [`MAX_COMPONENTS`]) that `accept`
+/// takes.
 ///
 /// The two best-scoring candidates are compared as in the source paper (Section 5.2.2): when they
 /// lie close together (the plume trails the tail), the one whose mean intensity fits the body's
@@ -113,10 +157,11 @@ pub fn select(
     aim: ImagePoint,
     chip_diag: f32,
     polarity: Option<BodyPolarity>,
+    accept: impl Fn(&Moments) -> bool,
 ) -> Option<Selection> {
     let mut best: Option<(f32, &Candidate)> = None;
     let mut second: Option<(f32, &Candidate)> = None;
-    for c in candidates.iter() {
+    for c in candidates.iter().filter(|c| accept(&c.moments)) {
         let s = score(c, sigma, aim, chip_diag);
         if best.is_none_or(|(b, _)| s > b) {
             second = best;
@@ -142,8 +187,7 @@ pub fn select(
     // `parts` has room for MAX_TARGET_PARTS >= 1 labels.
     let _ = selection.parts.push(main.label);
     let shape = Shape::of(&main.moments);
-    // Half-length of a uniform bar with this standard deviation is sqrt(3) sd.
-    let half_length = 1.732 * shape.major_sd;
+    let half_length = UNIFORM_BAR_HALF_SDS * shape.major_sd;
     for c in candidates.iter() {
         if c.label == main.label || c.moments.class != main.moments.class {
             continue;
@@ -152,7 +196,7 @@ pub fn select(
         let (along, across) = shape.line().local(centroid.x, centroid.y);
         let lateral_limit = (3.0 * shape.minor_sd).max(2.0);
         // The gap between the two pieces' extents along the axis.
-        let fragment_half_length = 1.732 * Shape::of(&c.moments).major_sd;
+        let fragment_half_length = UNIFORM_BAR_HALF_SDS * Shape::of(&c.moments).major_sd;
         let gap = along.abs() - half_length - fragment_half_length;
         let on_axis = across.abs() <= lateral_limit && gap <= half_length.max(6.0);
         if on_axis && selection.parts.push(c.label).is_ok() {
