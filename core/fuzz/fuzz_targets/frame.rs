@@ -62,8 +62,8 @@ enum ConfigSpec {
         /// The sky exclusion's minimum width, scale, margin and re-detection thresholds.
         sky_exclusion: [f32; 5],
         /// The body size tolerance (min width, max width, max length, margin), the faint box
-        /// in diameters and its threshold.
-        body: [f32; 6],
+        /// in diameters and its threshold, the width and polarity weights.
+        body: [f32; 8],
         ignore_range: bool,
         /// The shape-guided method, modulo 3 (0: none).
         guided: u8,
@@ -192,6 +192,8 @@ fn config(spec: &ConfigSpec) -> Config {
                 },
                 faint_box_diameters: b[4],
                 faint_threshold_sigma: b[5],
+                width_weight: b[6],
+                polarity_weight: b[7],
             },
             silhouette: SilhouetteConfig {
                 half_length_sds: s[0],

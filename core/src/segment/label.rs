@@ -98,6 +98,12 @@ impl Rect {
         }
     }
 
+    /// True when `point` (chip px) lies in the rectangle.
+    pub fn contains(&self, point: ImagePoint) -> bool {
+        (f32::from(self.x0)..f32::from(self.x1)).contains(&point.x)
+            && (f32::from(self.y0)..f32::from(self.y1)).contains(&point.y)
+    }
+
     /// True when the rectangle reaches an edge of a `width` x `height` chip.
     pub fn touches_edge(&self, width: usize, height: usize) -> bool {
         self.x0 == 0

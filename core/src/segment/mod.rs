@@ -67,6 +67,12 @@ pub struct DetectConfig {
     /// ... at this many standard deviations of the box mean's noise (the noise over the box's
     /// side): a faint body comes out whole.
     pub faint_threshold_sigma: f32,
+    /// Among candidates of the body's size, the score's weight of the width's agreement with the
+    /// body's ([`ExpectedBody::width_agreement`]): a terrain piece or cloud is wider.
+    pub width_weight: f32,
+    /// ... and the bonus of a candidate of the body's `polarity` (a plume of the other one can
+    /// be of the body's size and more significant than a faint body).
+    pub polarity_weight: f32,
 }
 
 impl DetectConfig {
@@ -93,6 +99,8 @@ impl DetectConfig {
         },
         faint_box_diameters: 0.6,
         faint_threshold_sigma: 4.0,
+        width_weight: 4.0,
+        polarity_weight: 2.0,
     };
 }
 
@@ -241,7 +249,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             .reset(chip.width(), chip.height())
             .map_err(|_| SegmentError::Capacity(CapacityKind::Mask))?;
         self.background.estimate(chip);
-        let first = self.detect_on_sky(chip, config, aim, expected)?;
+        let first = self.detect_on_sky(chip, config, aim, expected, None)?;
         if UNIFORM_BAR_HALF_SDS * 2.0 * first.shape.minor_sd < config.sky_exclusion_min_width_px {
             return Ok(first);
         }
@@ -252,50 +260,93 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         if !self.background.exclude(chip, &region, min_change) {
             return Ok(first);
         }
-        self.mask.clear();
-        self.detect_on_sky(chip, config, aim, expected)
+        // Again on the corrected sky: the same body, now whole (the first detection stands if
+        // nothing there has the body's size any more).
+        match self.detect_on_sky(chip, config, aim, expected, Some(first.shape.centre)) {
+            Err(SegmentError::NoTarget) => Ok(first),
+            other => other,
+        }
     }
 
-    /// [`Segmenter::detect`] on the current sky model.
+    /// [`Segmenter::detect`] on the current sky model; with `around`, only a candidate whose box
+    /// holds that point (chip px) can be the target. The mask is repainted only when a target
+    /// is found.
     fn detect_on_sky(
         &mut self,
         chip: &ChipView,
         config: &DetectConfig,
         aim: ImagePoint,
         expected: Option<&ExpectedBody>,
+        around: Option<ImagePoint>,
     ) -> Result<Target, SegmentError> {
         let sigma = self.background.sigma();
         let diag = libm::hypotf(chip.width() as f32, chip.height() as f32);
-        let fits = |m: &Moments| expected.is_none_or(|e| e.fits(m, &config.body_size));
+        // Of the body's size, clear of the chip's edge (terrain and large clutter enter from
+        // there, and a body cut by the edge has lost an end), and where it was.
+        let (width, height) = (chip.width(), chip.height());
+        let fits = |m: &Moments| {
+            expected
+                .is_none_or(|e| e.fits(m, &config.body_size) && !m.bbox.touches_edge(width, height))
+                && around.is_none_or(|p| m.bbox.contains(p))
+        };
+        // Of the candidates that fit, the one whose width agrees best with the body's, of the
+        // body's polarity where it is known.
+        let judged = |m: &Moments| {
+            fits(m).then(|| {
+                let width = expected.map_or(0.0, |e| {
+                    e.width_agreement(m, config.body_size.margin_px, config.width_weight)
+                });
+                let polarity = match config.polarity {
+                    Some(p) if p.sign() == f32::from(m.class) => config.polarity_weight,
+                    _ => 0.0,
+                };
+                width + polarity
+            })
+        };
         let select = |candidates: &heapless::Vec<Candidate, MAX_COMPONENTS>,
-                      accept: &dyn Fn(&Moments) -> bool| {
-            select::select(candidates, sigma, aim, diag, config.polarity, accept)
+                      judge: &dyn Fn(&Moments) -> Option<f32>| {
+            select::select(candidates, sigma, aim, diag, config.polarity, judge)
         };
         let mut candidates = heapless::Vec::new();
         let threshold = config.threshold_sigma * sigma;
         self.labeled_candidates(chip, config, threshold, 1, &mut candidates)?;
-        // The most significant candidate, as the source paper picks it, where it has the body's
-        // size; else the best of those that have.
-        let selection = match select(&candidates, &|_| true) {
-            Some(s) if fits(&s.moments) => Some(s),
-            Some(_) => select(&candidates, &fits),
-            None => None,
+        // Without an expected size, the best candidate as the source paper picks it; with one,
+        // the best of those of the body's size.
+        let selection = match expected {
+            Some(_) => select(&candidates, &judged),
+            None => select(&candidates, &|_| Some(0.0)),
         };
-        if let Some(selection) = selection {
+        let of_body_polarity = |t: &Target| config.polarity.is_none_or(|p| p == t.polarity);
+        let first = selection.map(|selection| {
+            self.mask.clear();
             paint(&self.labeler, &selection.parts, &mut self.mask);
-            return Ok(target_of(&selection, candidates.len()));
-        }
-        // No candidate of the body's size: the body may be too faint to stand out pixel by
-        // pixel; it is looked for at its own scale.
+            target_of(&selection, candidates.len())
+        });
         let box_px = expected.map_or(1, |e| faint_box_px(e, config));
-        if box_px < 3 {
-            return Err(SegmentError::NoTarget);
+        match first {
+            Some(target) if of_body_polarity(&target) || box_px < 3 => return Ok(target),
+            None if box_px < 3 => return Err(SegmentError::NoTarget),
+            _ => {}
         }
+        // Nothing of the body's size and polarity: the body may be too faint to stand out pixel
+        // by pixel (where a plume does); it is looked for at its own scale. A candidate of the
+        // body's polarity found there wins; else the first pass's stands.
         let threshold = config.faint_threshold_sigma * sigma / box_px as f32;
         self.labeled_candidates(chip, config, threshold, box_px, &mut candidates)?;
-        let selection = select(&candidates, &fits).ok_or(SegmentError::NoTarget)?;
-        paint(&self.labeler, &selection.parts, &mut self.mask);
-        Ok(target_of(&selection, candidates.len()))
+        let faint = select(&candidates, &judged).filter(|s| {
+            config
+                .polarity
+                .is_none_or(|p| p.sign() == f32::from(s.moments.class))
+        });
+        match (faint, first) {
+            (Some(selection), _) => {
+                self.mask.clear();
+                paint(&self.labeler, &selection.parts, &mut self.mask);
+                Ok(target_of(&selection, candidates.len()))
+            }
+            (None, Some(first)) => Ok(first),
+            (None, None) => Err(SegmentError::NoTarget),
+        }
     }
 
     /// The components of at least the minimum area of the chip labeled at `threshold` grey

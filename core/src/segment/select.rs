@@ -99,6 +99,17 @@ impl ExpectedBody {
     }
 }
 
+impl ExpectedBody {
+    /// How well a component's width agrees with the body's, for the selection's score: 0 at
+    /// the body's diameter plus `margin_px` (the blur and the threshold's reach beyond the
+    /// edge), falling with the square of the log of the ratio, `weight` per unit of it.
+    pub fn width_agreement(&self, moments: &Moments, margin_px: f32, weight: f32) -> f32 {
+        let width = 2.0 * UNIFORM_BAR_HALF_SDS * Shape::of(moments).minor_sd;
+        let ratio = libm::logf(width.max(1e-3) / (self.diameter_px + margin_px).max(1e-3));
+        -weight * ratio * ratio
+    }
+}
+
 /// A uniform bar's half-length (or half-width) in standard deviations of its mask: sqrt 3.
 pub const UNIFORM_BAR_HALF_SDS: f32 = 1.732;
 
@@ -144,8 +155,8 @@ fn adjacent(a: &Moments, b: &Moments, gap: f32) -> bool {
     dx * dx + dy * dy <= gap * gap
 }
 
-/// Selects the projectile among the `candidates` (at most [`MAX_COMPONENTS`]) that `accept`
-/// takes.
+/// Selects the projectile among the `candidates` (at most [`MAX_COMPONENTS`]) that `judge`
+/// takes: it gives a candidate's bonus to its score, or None to leave it out.
 ///
 /// The two best-scoring candidates are compared as in the source paper (Section 5.2.2): when they
 /// lie close together (the plume trails the tail), the one whose mean intensity fits the body's
@@ -157,12 +168,15 @@ pub fn select(
     aim: ImagePoint,
     chip_diag: f32,
     polarity: Option<BodyPolarity>,
-    accept: impl Fn(&Moments) -> bool,
+    judge: impl Fn(&Moments) -> Option<f32>,
 ) -> Option<Selection> {
     let mut best: Option<(f32, &Candidate)> = None;
     let mut second: Option<(f32, &Candidate)> = None;
-    for c in candidates.iter().filter(|c| accept(&c.moments)) {
-        let s = score(c, sigma, aim, chip_diag);
+    for (c, bonus) in candidates
+        .iter()
+        .filter_map(|c| judge(&c.moments).map(|b| (c, b)))
+    {
+        let s = score(c, sigma, aim, chip_diag) + bonus;
         if best.is_none_or(|(b, _)| s > b) {
             second = best;
             best = Some((s, c));
