@@ -41,7 +41,9 @@ fn terrain_and_a_plume_do_not_take_the_bodys_place() {
         .find(|s| s.folder == imade_host::stages::MASKS_FOLDER)
         .and_then(|s| s.stats)
         .map_or(f64::NAN, |s| s.median);
-    println!("small-clutter-terrain: {poses}/20 poses, median pitch {pitch:.3} deg/km, blind IoU {iou:.3}");
+    println!(
+        "small-clutter-terrain: {poses}/20 poses, median pitch {pitch:.3} deg/km, blind IoU {iou:.3}"
+    );
     assert!(poses >= 17, "{poses} of 20 frames with a pose");
     assert!(iou >= 0.4, "median IoU of the blind mask {iou}");
     assert!(pitch <= 3.0, "median pitch error {pitch} deg/km");

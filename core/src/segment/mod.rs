@@ -145,8 +145,9 @@ pub enum SegmentError {
     NoTarget,
     /// A capacity ran out.
     Capacity(CapacityKind),
-    /// The target's final mask reaches the chip's edge: the body has lost an end (or more), and
-    /// its extremes and scale would be those of a shorter body.
+    /// The target (its final mask, or a candidate of the body's expected size) reaches the
+    /// chip's edge: the body has lost an end (or more), and its extremes and scale would be those
+    /// of a shorter body.
     AtEdge,
 }
 
@@ -263,7 +264,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         // Again on the corrected sky: the same body, now whole (the first detection stands if
         // nothing there has the body's size any more).
         match self.detect_on_sky(chip, config, aim, expected, Some(first.shape.centre)) {
-            Err(SegmentError::NoTarget) => Ok(first),
+            Err(SegmentError::NoTarget | SegmentError::AtEdge) => Ok(first),
             other => other,
         }
     }
@@ -284,11 +285,12 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         // Of the body's size, clear of the chip's edge (terrain and large clutter enter from
         // there, and a body cut by the edge has lost an end), and where it was.
         let (width, height) = (chip.width(), chip.height());
-        let fits = |m: &Moments| {
-            expected
-                .is_none_or(|e| e.fits(m, &config.body_size) && !m.bbox.touches_edge(width, height))
+        let sized = |m: &Moments| {
+            expected.is_none_or(|e| e.fits(m, &config.body_size))
                 && around.is_none_or(|p| m.bbox.contains(p))
         };
+        let at_edge = |m: &Moments| expected.is_some() && m.bbox.touches_edge(width, height);
+        let fits = |m: &Moments| sized(m) && !at_edge(m);
         // Of the candidates that fit, the one whose width agrees best with the body's, of the
         // body's polarity where it is known.
         let judged = |m: &Moments| {
@@ -310,6 +312,11 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         let mut candidates = heapless::Vec::new();
         let threshold = config.threshold_sigma * sigma;
         self.labeled_candidates(chip, config, threshold, 1, &mut candidates)?;
+        // A candidate of the body's size cut by the chip's edge: if nothing else is taken, the
+        // body is there but has lost an end.
+        let cut_by_edge = candidates
+            .iter()
+            .any(|c| sized(&c.moments) && at_edge(&c.moments));
         // Without an expected size, the best candidate as the source paper picks it; with one,
         // the best of those of the body's size.
         let selection = match expected {
@@ -323,9 +330,14 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             target_of(&selection, candidates.len())
         });
         let box_px = expected.map_or(1, |e| faint_box_px(e, config));
+        let missing = if cut_by_edge {
+            SegmentError::AtEdge
+        } else {
+            SegmentError::NoTarget
+        };
         match first {
             Some(target) if of_body_polarity(&target) || box_px < 3 => return Ok(target),
-            None if box_px < 3 => return Err(SegmentError::NoTarget),
+            None if box_px < 3 => return Err(missing),
             _ => {}
         }
         // Nothing of the body's size and polarity: the body may be too faint to stand out pixel
@@ -345,7 +357,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
                 Ok(target_of(&selection, candidates.len()))
             }
             (None, Some(first)) => Ok(first),
-            (None, None) => Err(SegmentError::NoTarget),
+            (None, None) => Err(missing),
         }
     }
 
