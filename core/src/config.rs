@@ -6,6 +6,7 @@ pub use crate::extremes::SilhouetteConfig;
 pub use crate::segment::{DetectConfig, SizeTolerance};
 pub use crate::table_match::{GuidedLoopConfig, GuidedMethod, MatchConfig};
 pub use crate::temporal::TemporalConfig;
+pub use crate::track::TrackConfig;
 
 /// Which contrast polarity the projectile's body has against the sky.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -51,6 +52,8 @@ pub struct Config {
     pub table_match: MatchConfig,
     /// Temporal estimate: range smoothing, range trend, yaw choice.
     pub temporal: TemporalConfig,
+    /// The detection track: the gate on the next frame's candidates.
+    pub track: TrackConfig,
 }
 
 impl Config {
@@ -61,6 +64,7 @@ impl Config {
         silhouette: SilhouetteConfig::DEFAULT,
         table_match: MatchConfig::DEFAULT,
         temporal: TemporalConfig::DEFAULT,
+        track: TrackConfig::DEFAULT,
     };
 }
 

@@ -4,7 +4,7 @@
 use crate::chip::ChipView;
 use crate::extremes::Silhouette;
 use crate::pose::Pose;
-use crate::segment::{CapacityKind, SegmentError};
+use crate::segment::{CapacityKind, SegmentError, TrackUse};
 use crate::table_match::search::Match;
 
 /// One frame's input.
@@ -114,6 +114,8 @@ pub struct FrameResult {
     /// The table match, where a table is loaded and it matched (the pose is then the refined
     /// one; otherwise it is the closed form's).
     pub matched: Option<Match>,
+    /// How detection used the track across frames, where a target was found.
+    pub track: Option<TrackUse>,
 }
 
 impl FrameResult {
@@ -217,6 +219,7 @@ impl FrameResult {
             range_used: false,
             roll_deg: None,
             image_range_m: 0.0,
+            track: None,
             silhouette: None,
             matched: None,
         }

@@ -46,12 +46,13 @@ pub mod segment;
 pub mod shape_guided;
 pub mod table_match;
 pub mod temporal;
+pub mod track;
 
 pub use camera::Camera;
 pub use chip::{ChipError, ChipView};
 pub use config::{
     BodyPolarity, Config, DetectConfig, GuidedLoopConfig, GuidedMethod, MatchConfig, RangeUse,
-    SilhouetteConfig, SizeTolerance, TemporalConfig,
+    SilhouetteConfig, SizeTolerance, TemporalConfig, TrackConfig,
 };
 pub use extremes::Silhouette;
 pub use frame::{FrameError, FrameInput, FrameResult, ResultFault, Status};

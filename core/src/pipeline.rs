@@ -22,11 +22,12 @@ use crate::mask::BitMask;
 use crate::model::ProjectileModel;
 use crate::point::ImagePoint;
 use crate::pose::Pose;
-use crate::segment::{ExpectedBody, SegmentError, Segmenter, Target};
+use crate::segment::{ExpectedBody, SegmentError, Segmenter, Target, TrackGate, TrackUse};
 #[cfg(feature = "shape-guided")]
 use crate::table_match::guided_loop::LoopOutcome;
 use crate::table_match::{MatchedPose, Measurement, TableMatch};
 use crate::temporal::{Estimate, Observation, Prediction, Temporal};
+use crate::track::Track;
 
 /// A frame's input, checked: the range to use and the camera valid.
 struct CheckedInput<'a> {
@@ -50,6 +51,7 @@ pub struct Pipeline<
     detect: Segmenter<MAX_RUNS, MAX_LABELS, MASK_WORDS>,
     table_match: TableMatch<MASK_WORDS>,
     temporal: Temporal,
+    track: Track,
 }
 
 impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
@@ -64,6 +66,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             detect: Segmenter::new(),
             table_match: TableMatch::new(),
             temporal: Temporal::new(),
+            track: Track::new(),
         }
     }
 
@@ -119,6 +122,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
     /// Forgets the temporal state (a new clip).
     pub fn reset(&mut self) {
         self.temporal.reset();
+        self.track.reset();
         self.detect.clear_mask();
         self.table_match.clear();
     }
@@ -131,8 +135,9 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             Err(e) => return FrameResult::from_error(e),
         };
         let prediction = self.temporal.predict(input.time_s, &self.config.temporal);
-        let measured = self.measure(&input, &prediction);
-        let observation = measured.as_ref().ok().map(|m| Observation {
+        let gate = self.track.gate(input.time_s, &self.config.track);
+        let measured = self.measure(&input, &prediction, gate.as_ref());
+        let observation = measured.as_ref().ok().map(|(_, m)| Observation {
             image_range_m: m.image_range_m(),
             nose_dir: m.hypothesis.silhouette.axis.dir,
         });
@@ -142,10 +147,10 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             observation,
             &self.config.temporal,
         );
-        let result = match (measured, estimate) {
-            (Ok(m), Some(estimate)) => self.result(&m, &estimate),
-            (Err(e), _) => FrameResult::from_error(e),
-            (Ok(_), None) => FrameResult::from_error(FrameError::Unmeasurable),
+        let (result, target) = match (measured, estimate) {
+            (Ok((target, m)), Some(estimate)) => (self.result(&m, &estimate, target.track), target),
+            (Err(e), _) => return FrameResult::from_error(e),
+            (Ok(_), None) => return FrameResult::from_error(FrameError::Unmeasurable),
         };
         // Finite but extreme intrinsics or ranges can overflow the geometry, or underflow the
         // depth to the camera's plane (found by fuzzing): such a pose is no pose.
@@ -153,16 +158,19 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             self.table_match.clear();
             return FrameResult::from_error(FrameError::Unmeasurable);
         }
+        self.track.update(input.time_s, &target);
         result
     }
 
-    /// The image work of one frame, stage by stage, up to the table match; `prediction` is what
-    /// the recent frames expect of this one.
+    /// The image work of one frame, stage by stage, up to the table match: the target and the
+    /// measurement. `prediction` is what the recent frames expect of this one, `gate` where the
+    /// track expects the body.
     fn measure(
         &mut self,
         input: &CheckedInput,
         prediction: &Prediction,
-    ) -> Result<Measurement, FrameError> {
+        gate: Option<&TrackGate>,
+    ) -> Result<(Target, Measurement), FrameError> {
         let (chip, config) = (input.chip, &self.config);
         let aim = ImagePoint::new(0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
         let nose_dir = prediction.nose_dir;
@@ -172,7 +180,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             .and_then(|range_m| self.expected_body(range_m));
         let target = self
             .detect
-            .detect(chip, &config.detect, aim, expected.as_ref())
+            .detect(chip, &config.detect, aim, expected.as_ref(), gate)
             .inspect_err(|e| {
                 if let SegmentError::Capacity(_) = e {
                     self.detect.clear_mask();
@@ -191,7 +199,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             input.sensor_range_m,
         )
         .ok_or(FrameError::Unmeasurable)?;
-        Ok(self.table_match.measure(
+        let measurement = self.table_match.measure(
             chip,
             self.detect.background(),
             target.polarity,
@@ -199,7 +207,8 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             &self.camera,
             &self.model,
             &config.table_match,
-        ))
+        );
+        Ok((target, measurement))
     }
 
     /// The body's size in the chip at `range_m` m (None for a range that gives no finite size).
@@ -256,7 +265,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
     }
 
     /// The ok result of `measured` at the temporal `estimate`.
-    fn result(&self, measured: &Measurement, estimate: &Estimate) -> FrameResult {
+    fn result(&self, measured: &Measurement, estimate: &Estimate, track: TrackUse) -> FrameResult {
         let solution: ClosedForm = measured.at_range(&self.camera, &self.model, estimate.range_m);
         let [away, towards] = solution.candidates;
         let (chosen, alternative) = if estimate.choice.away {
@@ -283,6 +292,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             image_range_m: measured.image_range_m().unwrap_or(0.0),
             silhouette: Some(measured.hypothesis.silhouette),
             matched: measured.matched.map(|m| m.matched),
+            track: Some(track),
         }
     }
 }

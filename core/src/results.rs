@@ -2,10 +2,11 @@
 //! `core::fmt::Write` so that the host and the firmware produce the same bytes.
 
 use crate::frame::{FrameResult, Status};
+use crate::segment::TrackUse;
 use core::fmt::{self, Write};
 
 /// The header line (without a line end). The spec's columns, then imade's own.
-pub const HEADER: &str = "frame,status,tx_m,ty_m,tz_m,pitch_deg,yaw_deg,yaw_alt_deg,yaw_resolved,range_used,roll_deg,pitch_alt_deg,image_range_m";
+pub const HEADER: &str = "frame,status,tx_m,ty_m,tz_m,pitch_deg,yaw_deg,yaw_alt_deg,yaw_resolved,range_used,roll_deg,pitch_alt_deg,image_range_m,track";
 
 /// Writes one row (without a line end) for `frame`.
 pub fn write_row(out: &mut impl Write, frame: u64, result: &FrameResult) -> fmt::Result {
@@ -30,8 +31,10 @@ pub fn write_row(out: &mut impl Write, frame: u64, result: &FrameResult) -> fmt:
     }
     write!(
         out,
-        ",{:.4},{:.3}",
-        result.pitch_alt_deg, result.image_range_m
+        ",{:.4},{:.3},{}",
+        result.pitch_alt_deg,
+        result.image_range_m,
+        result.track.map_or("", TrackUse::as_str)
     )
 }
 
@@ -41,5 +44,5 @@ pub fn write_status_row(out: &mut impl Write, frame: Option<u64>, status: &str) 
     if let Some(frame) = frame {
         write!(out, "{frame}")?;
     }
-    write!(out, ",{status},,,,,,,false,false,,,")
+    write!(out, ",{status},,,,,,,false,false,,,,")
 }

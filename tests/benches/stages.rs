@@ -41,7 +41,9 @@ fn prepare(fixture: &Fixture) -> Vec<Prepared<'_>> {
         .filter_map(|frame| {
             let chip = frame.view();
             let aim = ImagePoint::new(0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
-            let target = segmenter.detect(&chip, &config.detect, aim, None).ok()?;
+            let target = segmenter
+                .detect(&chip, &config.detect, aim, None, None)
+                .ok()?;
             let background = segmenter.background().clone();
             let (model, camera) = (&fixture.model, &fixture.camera);
             let silhouette =
@@ -120,7 +122,7 @@ fn stages(c: &mut Criterion<ThreadCpuTime>) {
         b.iter(|| {
             let chip = next().view();
             let aim = ImagePoint::new(0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
-            black_box(segmenter.detect(&black_box(chip), &config.detect, aim, None)).is_ok()
+            black_box(segmenter.detect(&black_box(chip), &config.detect, aim, None, None)).is_ok()
         });
     });
 

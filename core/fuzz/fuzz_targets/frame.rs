@@ -9,7 +9,7 @@ use imade_core::lut::table::Table;
 use imade_core::mask::ChipMask;
 use imade_core::{
     BodyPolarity, Camera, Config, DetectConfig, FrameInput, GuidedLoopConfig, GuidedMethod,
-    MatchConfig, Pipeline, RangeUse, SilhouetteConfig, SizeTolerance, TemporalConfig,
+    MatchConfig, Pipeline, RangeUse, SilhouetteConfig, SizeTolerance, TemporalConfig, TrackConfig,
 };
 use imade_core_fuzz::{oracle, reference, synth};
 use libfuzzer_sys::fuzz_target;
@@ -62,8 +62,10 @@ enum ConfigSpec {
         /// The sky exclusion's minimum width, scale, margin and re-detection thresholds.
         sky_exclusion: [f32; 5],
         /// The body size tolerance (min width, max width, max length, margin), the faint box
-        /// in diameters and its threshold, the width and polarity weights.
-        body: [f32; 8],
+        /// in diameters and its threshold, the width, polarity and track weights.
+        body: [f32; 9],
+        /// The track's gate (px, length fraction, axis deg) and its longest age, s.
+        track: [f32; 4],
         ignore_range: bool,
         /// The shape-guided method, modulo 3 (0: none).
         guided: u8,
@@ -160,6 +162,7 @@ fn config(spec: &ConfigSpec) -> Config {
             mask_margin_px,
             sky_exclusion: x,
             body: b,
+            track: t,
             ignore_range,
             guided,
             shape_prior,
@@ -194,6 +197,7 @@ fn config(spec: &ConfigSpec) -> Config {
                 faint_threshold_sigma: b[5],
                 width_weight: b[6],
                 polarity_weight: b[7],
+                track_weight: b[8],
             },
             silhouette: SilhouetteConfig {
                 half_length_sds: s[0],
@@ -218,6 +222,12 @@ fn config(spec: &ConfigSpec) -> Config {
                         [usize::from(guided % 3)],
                     ..GuidedLoopConfig::DEFAULT
                 },
+            },
+            track: TrackConfig {
+                gate_px: t[0],
+                gate_length: t[1],
+                gate_axis_deg: t[2],
+                max_age_s: t[3],
             },
             temporal: TemporalConfig {
                 tz_smoothing_r,

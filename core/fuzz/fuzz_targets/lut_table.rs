@@ -97,6 +97,7 @@ fn prepared() -> &'static Prepared {
                 &Config::DEFAULT.detect,
                 ImagePoint::new(128.0, 128.0),
                 None,
+                None,
             )
             .expect("the projectile is found");
         let background = segmenter.background().clone();

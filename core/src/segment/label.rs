@@ -134,7 +134,7 @@ pub struct Moments {
 }
 
 impl Moments {
-    fn empty(class: i8) -> Self {
+    pub(crate) fn empty(class: i8) -> Self {
         Moments {
             n: 0,
             sx: 0,
@@ -155,7 +155,7 @@ impl Moments {
     }
 
     /// Adds the run `x0..=x1` of row `y` (exact integer sums).
-    fn add_run(&mut self, y: u16, x0: u16, x1: u16, sum_residual: f32, sum_value: u64) {
+    pub(crate) fn add_run(&mut self, y: u16, x0: u16, x1: u16, sum_residual: f32, sum_value: u64) {
         let n = u64::from(x1 - x0) + 1;
         let (a, b, yy) = (u64::from(x0), u64::from(x1), u64::from(y));
         let sum_x = (a + b) * n / 2;

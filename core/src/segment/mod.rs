@@ -8,6 +8,7 @@
 //! mask at a fraction of it (half, by default: the pixels at least half covered).
 
 pub mod background;
+pub mod gate;
 pub mod label;
 pub mod select;
 
@@ -18,8 +19,10 @@ use crate::extremes::{Axis, Silhouette};
 use crate::mask::BitMask;
 use crate::point::ImagePoint;
 use background::{Background, Region};
+pub use gate::{TrackGate, TrackUse};
 use label::{LabelError, Labeler, Moments, Rect};
-use select::{Candidate, Selection, Shape, UNIFORM_BAR_HALF_SDS};
+pub use select::UNIFORM_BAR_HALF_SDS;
+use select::{Candidate, Selection, Shape};
 pub use select::{ExpectedBody, SizeTolerance};
 
 /// The detection stage's tunables.
@@ -73,6 +76,8 @@ pub struct DetectConfig {
     /// ... and the bonus of a candidate of the body's `polarity` (a plume of the other one can
     /// be of the body's size and more significant than a faint body).
     pub polarity_weight: f32,
+    /// The bonus of a candidate where the track expects the body ([`TrackGate`]).
+    pub track_weight: f32,
 }
 
 impl DetectConfig {
@@ -101,6 +106,7 @@ impl DetectConfig {
         faint_threshold_sigma: 4.0,
         width_weight: 4.0,
         polarity_weight: 2.0,
+        track_weight: 1.0,
     };
 }
 
@@ -187,6 +193,8 @@ pub struct Target {
     pub parts: u8,
     /// Components of at least the minimum area in the chip.
     pub components: u16,
+    /// How the track was used to pick it.
+    pub track: TrackUse,
 }
 
 /// The detection stage and its fixed buffers: the sky model, the labeler (`MAX_RUNS` runs,
@@ -238,19 +246,21 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
 
     /// Detects the target in `chip`, aiming near `aim` (chip px), and paints its mask. Where
     /// the body's size is `expected`, only a candidate of that size is the target, and a body
-    /// too faint to stand out pixel by pixel is looked for at its own scale.
+    /// too faint to stand out pixel by pixel is looked for at its own scale. Where the track
+    /// has a `gate`, a best candidate outside it gives way to the best inside it.
     pub fn detect(
         &mut self,
         chip: &ChipView,
         config: &DetectConfig,
         aim: ImagePoint,
         expected: Option<&ExpectedBody>,
+        gate: Option<&TrackGate>,
     ) -> Result<Target, SegmentError> {
         self.mask
             .reset(chip.width(), chip.height())
             .map_err(|_| SegmentError::Capacity(CapacityKind::Mask))?;
         self.background.estimate(chip);
-        let first = self.detect_on_sky(chip, config, aim, expected, None)?;
+        let first = self.detect_on_sky(chip, config, aim, expected, gate, None)?;
         if UNIFORM_BAR_HALF_SDS * 2.0 * first.shape.minor_sd < config.sky_exclusion_min_width_px {
             return Ok(first);
         }
@@ -263,7 +273,8 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         }
         // Again on the corrected sky: the same body, now whole (the first detection stands if
         // nothing there has the body's size any more).
-        match self.detect_on_sky(chip, config, aim, expected, Some(first.shape.centre)) {
+        let around = Some(first.shape.centre);
+        match self.detect_on_sky(chip, config, aim, expected, gate, around) {
             Err(SegmentError::NoTarget | SegmentError::AtEdge) => Ok(first),
             other => other,
         }
@@ -272,12 +283,14 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
     /// [`Segmenter::detect`] on the current sky model; with `around`, only a candidate whose box
     /// holds that point (chip px) can be the target. The mask is repainted only when a target
     /// is found.
+    #[allow(clippy::too_many_arguments)]
     fn detect_on_sky(
         &mut self,
         chip: &ChipView,
         config: &DetectConfig,
         aim: ImagePoint,
         expected: Option<&ExpectedBody>,
+        gate: Option<&TrackGate>,
         around: Option<ImagePoint>,
     ) -> Result<Target, SegmentError> {
         let sigma = self.background.sigma();
@@ -309,6 +322,36 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
                       judge: &dyn Fn(&Moments) -> Option<f32>| {
             select::select(candidates, sigma, aim, diag, config.polarity, judge)
         };
+        // Without an expected size, the best candidate as the source paper picks it; with one,
+        // the best of those of the body's size. Where the track has a gate, a candidate inside
+        // it gains `track_weight`: the target is re-examined when that changes the pick.
+        let judge = |m: &Moments| match expected {
+            Some(_) => judged(m),
+            None => Some(0.0),
+        };
+        let choose = |candidates: &heapless::Vec<Candidate, MAX_COMPONENTS>| {
+            let best = select(candidates, &judge)?;
+            let Some(gate) = gate else {
+                return Some((best, TrackUse::Fresh));
+            };
+            let tracked = |m: &Moments| {
+                judge(m).map(|score| {
+                    score
+                        + if gate.admits(m) {
+                            config.track_weight
+                        } else {
+                            0.0
+                        }
+                })
+            };
+            let chosen = select(candidates, &tracked)?;
+            let track = match (gate.admits(&chosen.moments), chosen.parts == best.parts) {
+                (false, _) => TrackUse::Fresh,
+                (true, true) => TrackUse::Gated,
+                (true, false) => TrackUse::Reexamined,
+            };
+            Some((chosen, track))
+        };
         let mut candidates = heapless::Vec::new();
         let threshold = config.threshold_sigma * sigma;
         self.labeled_candidates(chip, config, threshold, 1, &mut candidates)?;
@@ -317,17 +360,11 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         let cut_by_edge = candidates
             .iter()
             .any(|c| sized(&c.moments) && at_edge(&c.moments));
-        // Without an expected size, the best candidate as the source paper picks it; with one,
-        // the best of those of the body's size.
-        let selection = match expected {
-            Some(_) => select(&candidates, &judged),
-            None => select(&candidates, &|_| Some(0.0)),
-        };
         let of_body_polarity = |t: &Target| config.polarity.is_none_or(|p| p == t.polarity);
-        let first = selection.map(|selection| {
+        let first = choose(&candidates).map(|(selection, track)| {
             self.mask.clear();
             paint(&self.labeler, &selection.parts, &mut self.mask);
-            target_of(&selection, candidates.len())
+            target_of(&selection, candidates.len(), track)
         });
         let box_px = expected.map_or(1, |e| faint_box_px(e, config));
         let missing = if cut_by_edge {
@@ -345,16 +382,16 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         // body's polarity found there wins; else the first pass's stands.
         let threshold = config.faint_threshold_sigma * sigma / box_px as f32;
         self.labeled_candidates(chip, config, threshold, box_px, &mut candidates)?;
-        let faint = select(&candidates, &judged).filter(|s| {
+        let faint = choose(&candidates).filter(|(s, _)| {
             config
                 .polarity
                 .is_none_or(|p| p.sign() == f32::from(s.moments.class))
         });
         match (faint, first) {
-            (Some(selection), _) => {
+            (Some((selection, track)), _) => {
                 self.mask.clear();
                 paint(&self.labeler, &selection.parts, &mut self.mask);
-                Ok(target_of(&selection, candidates.len()))
+                Ok(target_of(&selection, candidates.len(), track))
             }
             (None, Some(first)) => Ok(first),
             (None, None) => Err(missing),
@@ -507,6 +544,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             shape: Shape::of(&moments),
             parts: keep.len() as u8,
             components: target.components,
+            track: target.track,
         })
     }
 }
@@ -524,7 +562,7 @@ fn paint<const MAX_RUNS: usize, const MAX_LABELS: usize, const W: usize>(
     }
 }
 
-fn target_of(selection: &Selection, components: usize) -> Target {
+fn target_of(selection: &Selection, components: usize, track: TrackUse) -> Target {
     Target {
         polarity: if selection.moments.class > 0 {
             BodyPolarity::Bright
@@ -535,6 +573,7 @@ fn target_of(selection: &Selection, components: usize) -> Target {
         shape: Shape::of(&selection.moments),
         parts: selection.parts.len() as u8,
         components: components as u16,
+        track,
     }
 }
 
@@ -566,7 +605,7 @@ mod tests {
         let aim = ImagePoint::new(80.0, 64.0);
         let config = DetectConfig::DEFAULT;
         let mut segmenter: Segmenter = Segmenter::new();
-        let blind = segmenter.detect(&chip, &config, aim, None).unwrap();
+        let blind = segmenter.detect(&chip, &config, aim, None, None).unwrap();
         assert!(blind.shape.centre.y > 116.0, "{:?}", blind.shape);
         let expected = ExpectedBody {
             diameter_px: 6.0,
@@ -574,7 +613,7 @@ mod tests {
             length_px: 90.0,
         };
         let target = segmenter
-            .detect(&chip, &config, aim, Some(&expected))
+            .detect(&chip, &config, aim, Some(&expected), None)
             .unwrap();
         assert!(
             (target.shape.centre.y - 42.5).abs() < 1.0
