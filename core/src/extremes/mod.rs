@@ -162,6 +162,9 @@ pub struct Silhouette {
     /// How much better the width profile fits the model with the nose where it was put than the
     /// other way round, in diameters squared (0: no evidence; [`orientation`]).
     pub nose_evidence: f32,
+    /// True where a plume of the opposite polarity lies beyond the tail: it blurs into the
+    /// tail's edge, which `tail_t` allows for and the width profile there does not.
+    pub plume_at_tail: bool,
 }
 
 /// Why the silhouette could not be measured.
@@ -316,6 +319,7 @@ pub fn measure(
         contrast: section.contrast,
         sigma_px: section.sigma_px,
         nose_evidence: libm::fabsf(evidence),
+        plume_at_tail,
     })
 }
 

@@ -300,6 +300,7 @@ mod tests {
             contrast: 50.0,
             sigma_px: 0.8,
             nose_evidence: 1.0,
+            plume_at_tail: false,
         }
     }
 

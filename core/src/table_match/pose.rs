@@ -107,8 +107,14 @@ pub fn match_pose(
         closed_form::corrected_ends(sil, model, libm::sinf(aspect), libm::cosf(aspect), px_per_m);
     let measured = Measured {
         profile: &profile,
+        // Where a plume blurs into the tail, the profile is matched from inside its reach; the
+        // tail's place comes from the silhouette's plume-aware edge (`ends_t`).
         bins: (
-            profile.bin_of(sil.tail_t - margin),
+            profile.bin_of(if sil.plume_at_tail {
+                sil.tail_t + margin
+            } else {
+                sil.tail_t - margin
+            }),
             (profile.bin_of(sil.nose_t + margin) + 1).min(profile.len()),
         ),
         // The profile's linear split between bins adds a 1-px triangle: variance 1/6.
