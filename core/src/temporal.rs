@@ -16,8 +16,13 @@ use crate::point::ImagePoint;
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TemporalConfig {
-    /// Weight `r` of the source paper's Eq. 5 Tz smoothing, in (0, 1]; 1 disables smoothing.
+    /// Weight `r` of the source paper's Eq. 5 Tz smoothing, in (0, 1], for frames
+    /// `tz_smoothing_interval_s` apart; 1 disables smoothing.
     pub tz_smoothing_r: f32,
+    /// The frame interval `r` is for, s (the source paper's 30 Hz camera). Frames further apart
+    /// blend as that many steps would: `1 - (1 - r)^(dt / interval)`, so a clip that keeps every
+    /// n-th frame is not smoothed n times harder.
+    pub tz_smoothing_interval_s: f32,
     /// Frames in the window for the Tz trend (at most [`MAX_WINDOW`]).
     pub window_frames: usize,
     /// Fewest frames in the window before the yaw choice can be resolved.
@@ -28,10 +33,22 @@ pub struct TemporalConfig {
     pub max_gap_s: f32,
 }
 
+/// Eq. 5's weight for frames `dt` s apart: `r` per `tz_smoothing_interval_s`, compounded (the
+/// weight itself for a non-positive or non-finite interval).
+fn step_weight(config: &TemporalConfig, dt: f32) -> f32 {
+    let r = config.tz_smoothing_r.clamp(0.0, 1.0);
+    let steps = dt / config.tz_smoothing_interval_s;
+    if !(steps.is_finite() && steps > 1.0) {
+        return r;
+    }
+    (1.0 - libm::powf(1.0 - r, steps)).clamp(0.0, 1.0)
+}
+
 impl TemporalConfig {
     /// The defaults.
     pub const DEFAULT: TemporalConfig = TemporalConfig {
         tz_smoothing_r: 0.1,
+        tz_smoothing_interval_s: 1.0 / 30.0,
         window_frames: 15,
         min_trend_frames: 4,
         trend_sigma: 3.0,
@@ -210,11 +227,11 @@ impl Temporal {
 
     /// Smooths a slant range measured from the image at time `t` (Eq. 5 with trend), m.
     fn smooth_range(&mut self, t: f32, measured: f32, config: &TemporalConfig) -> f32 {
-        let r = config.tz_smoothing_r.clamp(0.0, 1.0);
         let value = match self.smoothed {
             Some(prev) => {
                 let slope = self.trend().map_or(0.0, |tr| tr.slope);
                 let predicted = prev.range + slope * (t - prev.t);
+                let r = step_weight(config, t - prev.t);
                 r * measured + (1.0 - r) * predicted
             }
             None => measured,
@@ -348,6 +365,25 @@ fn median(values: &mut [f32]) -> Option<f32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Eq. 5's weight compounds over the frames a clip skipped: r for frames one interval apart
+    /// (or closer), 1 - 0.9^2 = 0.19 for two, 1 - 0.9^8 for eight; r = 1 stays 1.
+    #[test]
+    fn the_smoothing_weight_compounds_over_skipped_frames() {
+        let config = TemporalConfig::DEFAULT;
+        let step = config.tz_smoothing_interval_s;
+        assert_eq!(step_weight(&config, step * 0.5), 0.1);
+        assert!((step_weight(&config, step) - 0.1).abs() < 1e-5);
+        assert!((step_weight(&config, 2.0 * step) - 0.19).abs() < 1e-5);
+        let eight = 1.0 - 0.9f32.powi(8);
+        assert!((step_weight(&config, 8.0 * step) - eight).abs() < 1e-5);
+        assert_eq!(step_weight(&config, f32::NAN), 0.1);
+        let none = TemporalConfig {
+            tz_smoothing_r: 1.0,
+            ..config
+        };
+        assert_eq!(step_weight(&none, 8.0 * step), 1.0);
+    }
 
     #[test]
     fn resolves_a_growing_range_as_away_and_a_shrinking_one_as_towards() {

@@ -53,6 +53,7 @@ enum ConfigSpec {
         mask_level: f32,
         mask_min_sigma: f32,
         tz_smoothing_r: f32,
+        tz_smoothing_interval_s: f32,
         window_frames: u8,
         min_trend_frames: u8,
         trend_sigma: f32,
@@ -154,6 +155,7 @@ fn config(spec: &ConfigSpec) -> Config {
             mask_level,
             mask_min_sigma,
             tz_smoothing_r,
+            tz_smoothing_interval_s,
             window_frames,
             min_trend_frames,
             trend_sigma,
@@ -231,6 +233,7 @@ fn config(spec: &ConfigSpec) -> Config {
             },
             temporal: TemporalConfig {
                 tz_smoothing_r,
+                tz_smoothing_interval_s,
                 window_frames: usize::from(window_frames),
                 min_trend_frames: usize::from(min_trend_frames),
                 trend_sigma,
