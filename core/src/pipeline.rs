@@ -22,7 +22,9 @@ use crate::mask::BitMask;
 use crate::model::ProjectileModel;
 use crate::point::ImagePoint;
 use crate::pose::Pose;
-use crate::segment::{ExpectedBody, SegmentError, Segmenter, Target, TrackGate, TrackUse};
+use crate::segment::{
+    Expectation, ExpectedBody, SegmentError, Segmenter, Target, TrackGate, TrackUse,
+};
 #[cfg(feature = "shape-guided")]
 use crate::table_match::guided_loop::LoopOutcome;
 use crate::table_match::{MatchedPose, Measurement, TableMatch};
@@ -136,7 +138,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         };
         let prediction = self.temporal.predict(input.time_s, &self.config.temporal);
         let gate = self.track.gate(input.time_s, &self.config.track);
-        let measured = self.measure(&input, &prediction, gate.as_ref());
+        let measured = self.measure(&input, &prediction, gate);
         let observation = measured.as_ref().ok().map(|(_, m)| Observation {
             image_range_m: m.image_range_m(),
             nose_dir: m.hypothesis.silhouette.axis.dir,
@@ -169,7 +171,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         &mut self,
         input: &CheckedInput,
         prediction: &Prediction,
-        gate: Option<&TrackGate>,
+        gate: Option<TrackGate>,
     ) -> Result<(Target, Measurement), FrameError> {
         let (chip, config) = (input.chip, &self.config);
         let aim = ImagePoint::new(0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
@@ -180,7 +182,15 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             .and_then(|range_m| self.expected_body(range_m));
         let target = self
             .detect
-            .detect(chip, &config.detect, aim, expected.as_ref(), gate)
+            .detect(
+                chip,
+                &config.detect,
+                aim,
+                &Expectation {
+                    size: expected,
+                    gate,
+                },
+            )
             .inspect_err(|e| {
                 if let SegmentError::Capacity(_) = e {
                     self.detect.clear_mask();

@@ -17,7 +17,7 @@ use imade_core::closed_form::Hypothesis;
 use imade_core::extremes::{self, Silhouette};
 use imade_core::segment::background::Background;
 use imade_core::segment::label::{Labeler, Rect};
-use imade_core::segment::{Segmenter, Target};
+use imade_core::segment::{Expectation, Segmenter, Target};
 use imade_core::table_match::TableMatch;
 use imade_core::{Config, ImagePoint};
 use std::hint::black_box;
@@ -42,7 +42,7 @@ fn prepare(fixture: &Fixture) -> Vec<Prepared<'_>> {
             let chip = frame.view();
             let aim = ImagePoint::new(0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
             let target = segmenter
-                .detect(&chip, &config.detect, aim, None, None)
+                .detect(&chip, &config.detect, aim, &Expectation::NONE)
                 .ok()?;
             let background = segmenter.background().clone();
             let (model, camera) = (&fixture.model, &fixture.camera);
@@ -122,7 +122,8 @@ fn stages(c: &mut Criterion<ThreadCpuTime>) {
         b.iter(|| {
             let chip = next().view();
             let aim = ImagePoint::new(0.5 * chip.width() as f32, 0.5 * chip.height() as f32);
-            black_box(segmenter.detect(&black_box(chip), &config.detect, aim, None, None)).is_ok()
+            black_box(segmenter.detect(&black_box(chip), &config.detect, aim, &Expectation::NONE))
+                .is_ok()
         });
     });
 

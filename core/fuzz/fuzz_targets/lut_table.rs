@@ -14,7 +14,7 @@ use imade_core::extremes::{self, Silhouette};
 use imade_core::lut::render;
 use imade_core::lut::table::Table;
 use imade_core::mask::ChipMask;
-use imade_core::segment::Segmenter;
+use imade_core::segment::{Expectation, Segmenter};
 use imade_core::segment::background::Background;
 use imade_core::table_match::{MatchConfig, MatchInput, pose};
 use imade_core::{BodyPolarity, Camera, Config, ImagePoint};
@@ -96,8 +96,7 @@ fn prepared() -> &'static Prepared {
                 &view,
                 &Config::DEFAULT.detect,
                 ImagePoint::new(128.0, 128.0),
-                None,
-                None,
+                &Expectation::NONE,
             )
             .expect("the projectile is found");
         let background = segmenter.background().clone();

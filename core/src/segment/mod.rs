@@ -116,6 +116,23 @@ impl Default for DetectConfig {
     }
 }
 
+/// What detection knows of the body before it looks at the chip.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Expectation {
+    /// Its size in the chip, where the range is known (the sensor's or the track's).
+    pub size: Option<ExpectedBody>,
+    /// Where the track of recent frames expects it.
+    pub gate: Option<TrackGate>,
+}
+
+impl Expectation {
+    /// Nothing known: detection as the source paper's (the most significant candidate).
+    pub const NONE: Expectation = Expectation {
+        size: None,
+        gate: None,
+    };
+}
+
 /// The side of the box a faint body of the `expected` size is looked for with, px: odd, 3 to
 /// [`label::MAX_BOX_PX`], or less than 3 for a body too thin for a box.
 fn faint_box_px(expected: &ExpectedBody, config: &DetectConfig) -> usize {
@@ -245,22 +262,21 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
     }
 
     /// Detects the target in `chip`, aiming near `aim` (chip px), and paints its mask. Where
-    /// the body's size is `expected`, only a candidate of that size is the target, and a body
-    /// too faint to stand out pixel by pixel is looked for at its own scale. Where the track
-    /// has a `gate`, a best candidate outside it gives way to the best inside it.
+    /// the body's size is expected ([`Expectation::size`]), only a candidate of that size is the
+    /// target, and a body too faint to stand out pixel by pixel is looked for at its own scale.
+    /// Where the track has a gate ([`Expectation::gate`]), a candidate inside it is preferred.
     pub fn detect(
         &mut self,
         chip: &ChipView,
         config: &DetectConfig,
         aim: ImagePoint,
-        expected: Option<&ExpectedBody>,
-        gate: Option<&TrackGate>,
+        expect: &Expectation,
     ) -> Result<Target, SegmentError> {
         self.mask
             .reset(chip.width(), chip.height())
             .map_err(|_| SegmentError::Capacity(CapacityKind::Mask))?;
         self.background.estimate(chip);
-        let first = self.detect_on_sky(chip, config, aim, expected, gate, None)?;
+        let first = self.detect_on_sky(chip, config, aim, expect, None)?;
         if UNIFORM_BAR_HALF_SDS * 2.0 * first.shape.minor_sd < config.sky_exclusion_min_width_px {
             return Ok(first);
         }
@@ -274,7 +290,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         // Again on the corrected sky: the same body, now whole (the first detection stands if
         // nothing there has the body's size any more).
         let around = Some(first.shape.centre);
-        match self.detect_on_sky(chip, config, aim, expected, gate, around) {
+        match self.detect_on_sky(chip, config, aim, expect, around) {
             Err(SegmentError::NoTarget | SegmentError::AtEdge) => Ok(first),
             other => other,
         }
@@ -283,16 +299,15 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
     /// [`Segmenter::detect`] on the current sky model; with `around`, only a candidate whose box
     /// holds that point (chip px) can be the target. The mask is repainted only when a target
     /// is found.
-    #[allow(clippy::too_many_arguments)]
     fn detect_on_sky(
         &mut self,
         chip: &ChipView,
         config: &DetectConfig,
         aim: ImagePoint,
-        expected: Option<&ExpectedBody>,
-        gate: Option<&TrackGate>,
+        expect: &Expectation,
         around: Option<ImagePoint>,
     ) -> Result<Target, SegmentError> {
+        let (expected, gate) = (expect.size.as_ref(), expect.gate.as_ref());
         let sigma = self.background.sigma();
         let diag = libm::hypotf(chip.width() as f32, chip.height() as f32);
         // Of the body's size, clear of the chip's edge (terrain and large clutter enter from
@@ -605,7 +620,9 @@ mod tests {
         let aim = ImagePoint::new(80.0, 64.0);
         let config = DetectConfig::DEFAULT;
         let mut segmenter: Segmenter = Segmenter::new();
-        let blind = segmenter.detect(&chip, &config, aim, None, None).unwrap();
+        let blind = segmenter
+            .detect(&chip, &config, aim, &Expectation::NONE)
+            .unwrap();
         assert!(blind.shape.centre.y > 116.0, "{:?}", blind.shape);
         let expected = ExpectedBody {
             diameter_px: 6.0,
@@ -613,7 +630,15 @@ mod tests {
             length_px: 90.0,
         };
         let target = segmenter
-            .detect(&chip, &config, aim, Some(&expected), None)
+            .detect(
+                &chip,
+                &config,
+                aim,
+                &Expectation {
+                    size: Some(expected),
+                    gate: None,
+                },
+            )
             .unwrap();
         assert!(
             (target.shape.centre.y - 42.5).abs() < 1.0
