@@ -140,8 +140,9 @@ fn faint_box_px(expected: &ExpectedBody, config: &DetectConfig) -> usize {
     if side.is_nan() || side < 3.0 {
         return 1;
     }
-    let odd = ((side - 1.0) / 2.0) as usize * 2 + 1;
-    odd.min(label::MAX_BOX_PX)
+    // Clamped before the conversion: a huge side (an absurd range or config) would overflow.
+    let side = side.min(label::MAX_BOX_PX as f32);
+    ((side - 1.0) / 2.0) as usize * 2 + 1
 }
 
 /// The region a detected body of mask shape `shape` and its blur cover, for the sky model to
@@ -666,6 +667,8 @@ mod tests {
         assert_eq!(side(7.5), 3);
         assert_eq!(side(9.0), 5);
         assert_eq!(side(40.0), label::MAX_BOX_PX);
+        assert_eq!(side(f32::MAX), label::MAX_BOX_PX);
+        assert_eq!(side(f32::INFINITY), label::MAX_BOX_PX);
         assert_eq!(side(f32::NAN), 1);
     }
 }
