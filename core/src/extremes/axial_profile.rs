@@ -161,9 +161,15 @@ impl WidthProfile {
 
     /// Mean of the signed profile ([`WidthProfile::signed_at`]) between `t0` and `t1`, px.
     pub fn signed_mean_between(&self, t0: f32, t1: f32) -> f32 {
+        let (sum, bins) = self.sum_between(t0, t1, |i| self.signed_at(i));
+        sum / bins
+    }
+
+    /// The sum of `value` over the bins between positions `t0` and `t1` (either order), and
+    /// how many bins that is.
+    fn sum_between(&self, t0: f32, t1: f32, value: impl Fn(usize) -> f32) -> (f32, f32) {
         let (a, b) = (self.bin_of(t0.min(t1)), self.bin_of(t0.max(t1)));
-        let n = (b - a + 1) as f32;
-        (a..=b).map(|i| self.signed_at(i)).sum::<f32>() / n
+        ((a..=b).map(value).sum(), (b - a + 1) as f32)
     }
 
     fn crossing_inward_of(
@@ -201,18 +207,14 @@ impl WidthProfile {
     /// The opposite polarity's area between positions `t0` and `t1` (either order), in px² at
     /// the body's contrast.
     pub fn opposite_area_between(&self, t0: f32, t1: f32) -> f32 {
-        let (a, b) = (self.bin_of(t0.min(t1)), self.bin_of(t0.max(t1)));
-        let sum: f32 = (a..=b)
-            .map(|i| self.opposite.get(i).copied().unwrap_or(0.0))
-            .sum();
+        let (sum, _) = self.sum_between(t0, t1, |i| self.opposite.get(i).copied().unwrap_or(0.0));
         sum * self.bin
     }
 
     /// Mean width over positions between `t0` and `t1` (either order), px.
     pub fn mean_between(&self, t0: f32, t1: f32) -> f32 {
-        let (a, b) = (self.bin_of(t0.min(t1)), self.bin_of(t0.max(t1)));
-        let n = (b - a + 1) as f32;
-        (a..=b).map(|i| self.at(i)).sum::<f32>() / n
+        let (sum, bins) = self.sum_between(t0, t1, |i| self.at(i));
+        sum / bins
     }
 
     /// The zero of a least-squares line through the width where it lies between `lo` and `hi`,

@@ -315,29 +315,12 @@ pub fn measure(
         nose_t,
         nose_ramp_offset_m: model.nose_ramp_zero_offset_m(ramp_low, ramp_high),
         tail_t,
-        diameter_px: full_diameter_px(d, fitted_s, model),
+        diameter_px: model.full_diameter(d, fitted_s.0, fitted_s.1).unwrap_or(d),
         contrast: section.contrast,
         sigma_px: section.sigma_px,
         nose_evidence: libm::fabsf(evidence),
         plume_at_tail,
     })
-}
-
-/// The full body diameter, px, from the diameter `d` fitted over the stretch `fitted_s` (m aft
-/// of the tip): `d` itself inside the model's cylinder, else scaled by the full radius over the
-/// stretch's mean (a cross-section over a tapering stretch measures its mean diameter).
-fn full_diameter_px(d: f32, fitted_s: (f32, f32), model: &ProjectileModel) -> f32 {
-    let (cylinder_start, cylinder_end) = model.cylinder_s();
-    let (s0, s1) = fitted_s;
-    if s0 >= cylinder_start && s1 <= cylinder_end {
-        return d;
-    }
-    let mean_r = model.mean_radius_m(s0, s1);
-    if mean_r > 0.0 {
-        d * model.radius_m() / mean_r
-    } else {
-        d
-    }
 }
 
 /// The axis through the two stretches' fitted centres (at -`lever`/2 and +`lever`/2 along it).

@@ -208,6 +208,20 @@ impl<'a> ProjectileModel<'a> {
         sum / MEAN_RADIUS_SAMPLES as f32
     }
 
+    /// The full body diameter from a diameter `d` (any unit) measured over the stretch from
+    /// `s0` to `s1` m aft of the tip: `d` itself inside the cylinder ([`Self::cylinder_s`]),
+    /// else `d` scaled by the full radius over the stretch's mean ([`Self::mean_radius_m`]: a
+    /// cross-section over a tapering stretch measures its mean diameter); None where that mean
+    /// is not positive.
+    pub fn full_diameter(&self, d: f32, s0: f32, s1: f32) -> Option<f32> {
+        let (cylinder_start, cylinder_end) = self.cylinder_s;
+        if s0 >= cylinder_start && s1 <= cylinder_end {
+            return Some(d);
+        }
+        let mean_r = self.mean_radius_m(s0, s1);
+        (mean_r > 0.0).then(|| d * self.radius_m() / mean_r)
+    }
+
     /// The first contiguous stretch where the radius is at least `fraction` of the body's,
     /// ending at the fins' root leading edge at the latest.
     fn stretch_at_least(&self, fraction: f32) -> (f32, f32) {

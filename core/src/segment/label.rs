@@ -14,18 +14,23 @@ use crate::point::ImagePoint;
 /// The largest box of [`Labeler::label_box`], px.
 pub const MAX_BOX_PX: usize = 5;
 
-/// The background-subtracted values of row `y` from column `x_start`, into `out` (its length).
+/// The background-subtracted values of row `y` from column `x_start`, into `out` (its length),
+/// each also handed to `each` with its index in the row (in the same pass: the common case's
+/// classification costs no second loop).
 fn residuals_of_row(
     chip: &ChipView,
     background: &Background,
     y: usize,
     x_start: usize,
     out: &mut [f32],
+    mut each: impl FnMut(usize, f32),
 ) {
     background.fill_row(y, x_start, out);
     chip.for_each_in_span(y, x_start, x_start + out.len(), |x, value| {
-        if let Some(r) = out.get_mut(x - x_start) {
+        let i = x - x_start;
+        if let Some(r) = out.get_mut(i) {
             *r = f32::from(value) - *r;
+            each(i, *r);
         }
     });
 }
@@ -303,13 +308,9 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
         let mut prev = 0..0;
         for y in y_start..y_end {
             if half == 0 {
-                // The residual and its class in one tight pass (the common case's cost).
-                background.fill_row(y, x_start, residuals);
-                chip.for_each_in_span(y, x_start, x_start + width, |x, value| {
-                    let i = x - x_start;
-                    if let (Some(r), Some(c)) = (residuals.get_mut(i), classes.get_mut(i)) {
-                        *r = f32::from(value) - *r;
-                        *c = classify(*r);
+                residuals_of_row(chip, background, y, x_start, residuals, |i, r| {
+                    if let Some(c) = classes.get_mut(i) {
+                        *c = classify(r);
                     }
                 });
             } else {
@@ -318,13 +319,13 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
                 let rows = y.saturating_sub(half).max(y_start)..(y + half + 1).min(y_end);
                 let n_rows = rows.len().max(1) as f32;
                 for r in rows {
-                    residuals_of_row(chip, background, r, x_start, residuals);
+                    residuals_of_row(chip, background, r, x_start, residuals, |_, _| {});
                     for (b, v) in boxed.iter_mut().zip(residuals.iter()) {
                         *b += v;
                     }
                 }
                 box_across(boxed, half, n_rows, classes, &classify);
-                residuals_of_row(chip, background, y, x_start, residuals);
+                residuals_of_row(chip, background, y, x_start, residuals, |_, _| {});
             }
             prev = self.push_row(chip, y, x_start, classes, residuals, prev)?;
         }

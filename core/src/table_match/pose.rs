@@ -205,10 +205,9 @@ fn cylinder_section(
         let t1 = sil.nose_t - length * s0 / l;
         (t1 - t0 >= config.min_cylinder_px).then_some((s0, s1, t0, t1))
     };
-    let (full, (s0, s1, t0, t1)) = match within(model.cylinder_s()) {
-        Some(stretch) => (true, stretch),
-        None => (false, within(model.wide_s()).ok_or(MatchError::NoSection)?),
-    };
+    let (s0, s1, t0, t1) = within(model.cylinder_s())
+        .or_else(|| within(model.wide_s()))
+        .ok_or(MatchError::NoSection)?;
     let shape = Shape {
         centre: sil.axis.centre,
         axis: sil.axis.dir,
@@ -227,12 +226,8 @@ fn cylinder_section(
     );
     let start = cross_profile::fit_binned(&binned).ok_or(MatchError::NoSection)?;
     let mut section = section::fit(&binned, &start).ok_or(MatchError::NoSection)?;
-    if !full {
-        let mean_r = model.mean_radius_m(s0, s1);
-        if mean_r.is_nan() || mean_r <= 0.0 {
-            return Err(MatchError::NoSection);
-        }
-        section.diameter_px *= model.radius_m() / mean_r;
-    }
+    section.diameter_px = model
+        .full_diameter(section.diameter_px, s0, s1)
+        .ok_or(MatchError::NoSection)?;
     Ok(section)
 }
