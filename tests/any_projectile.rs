@@ -4,8 +4,7 @@
 //! run is compared with the run of the bundled model, which was made from the analytic shape.
 
 use imade_host::eval::paper::Parameter;
-use imade_host::model::command::{BuildArgs, MeshArgs};
-use imade_host::run::{RangeArg, RefineChoice, RunArgs, run};
+use imade_host::run::RangeArg;
 use imade_host::sim::model::REF_1378X80;
 use std::path::{Path, PathBuf};
 
@@ -27,25 +26,8 @@ struct Errors {
 
 /// The errors per km of a run of `clip` with the model choice `lut`.
 fn errors(clip: &Path, lut: &str, range: RangeArg, out: &Path) -> Errors {
-    run(&RunArgs {
-        clips: vec![clip.to_path_buf()],
-        out: out.to_path_buf(),
-        range,
-        save_masks: false,
-        lut: lut.to_owned(),
-        refine: RefineChoice(None),
-    })
-    .expect("the run succeeds");
-    let evaluation =
-        imade_host::eval::evaluate(clip, &out.join("results.csv")).expect("the evaluation");
-    let stats = |p: Parameter| {
-        evaluation
-            .pose
-            .parameters
-            .iter()
-            .find(|e| e.parameter == p)
-            .and_then(|e| e.stats)
-    };
+    let evaluation = imade_tests::run_and_evaluate(clip, lut, range, false, out);
+    let stats = |p: Parameter| evaluation.pose.stats(p);
     let median = |p: Parameter| stats(p).map_or(f64::NAN, |s| s.median);
     Errors {
         medians: [
@@ -59,27 +41,6 @@ fn errors(clip: &Path, lut: &str, range: RangeArg, out: &Path) -> Errors {
     }
 }
 
-/// `imade model build --mesh MESH --diameter D --id ID` with the default table grid, beside the
-/// mesh; the model file's path.
-fn model_from_mesh(mesh: &Path, id: &str, diameter_m: f64) -> PathBuf {
-    let out = mesh.with_extension("model");
-    imade_host::model::command::build_command(&BuildArgs {
-        model: None,
-        mesh: Some(mesh.to_path_buf()),
-        mesh_scale: 1.0,
-        diameter: Some(diameter_m),
-        id: Some(id.into()),
-        table: None,
-        no_table: false,
-        tilts: 91,
-        rolls: None,
-        stations: 96,
-        out: out.clone(),
-    })
-    .unwrap_or_else(|e| panic!("{id}: {e:#}"));
-    out
-}
-
 #[test]
 fn a_model_built_from_a_mesh_runs_a_clip_like_the_bundled_one() {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("any-projectile");
@@ -87,7 +48,7 @@ fn a_model_built_from_a_mesh_runs_a_clip_like_the_bundled_one() {
     std::fs::create_dir_all(&dir).unwrap();
     let mesh = dir.join("ref-1378x80.obj");
     std::fs::write(&mesh, REF_1378X80.tessellate().to_obj()).unwrap();
-    let model = model_from_mesh(&mesh, "ref-1378x80", 0.08);
+    let model = imade_tests::model_from_mesh(&mesh, "ref-1378x80", 0.08);
     for (clip, range) in [
         ("small-known-range", RangeArg::Auto),
         ("small-unknown-range", RangeArg::Ignore),
@@ -181,14 +142,7 @@ fn other_shapes_run_from_their_meshes() {
         row("ref-1378x80", name, &e);
     }
     for id in imade_host::sim::shapes::IDS {
-        let mesh = dir.join(format!("{id}.obj"));
-        imade_host::model::command::mesh_command(&MeshArgs {
-            shape: id.into(),
-            out: mesh.clone(),
-        })
-        .expect("the shape's mesh");
-        let diameter_m = imade_host::sim::shapes::description(id).unwrap().diameter_m;
-        let model = model_from_mesh(&mesh, id, diameter_m);
+        let model = imade_tests::shape_model(&dir, id);
         let clip = fixture(&format!("small-{id}"));
         for (range, name) in [(RangeArg::Auto, "known"), (RangeArg::Ignore, "unknown")] {
             let e = errors(
@@ -263,14 +217,7 @@ fn finned_shapes_match_the_reference_on_comparable_clips() {
         row("ref-1378x80", name, e);
     }
     for id in imade_host::sim::shapes::IDS {
-        let mesh = dir.join(format!("{id}.obj"));
-        imade_host::model::command::mesh_command(&MeshArgs {
-            shape: id.into(),
-            out: mesh.clone(),
-        })
-        .expect("the shape's mesh");
-        let diameter_m = imade_host::sim::shapes::description(id).unwrap().diameter_m;
-        let model = model_from_mesh(&mesh, id, diameter_m);
+        let model = imade_tests::shape_model(&dir, id);
         let clip = render(id);
         let finned = imade_host::sim::shapes::description(id)
             .unwrap()

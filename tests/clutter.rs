@@ -4,7 +4,7 @@
 //! (95 % of frames, mask IoU 0.85, pitch 0.5 and chosen yaw 4 deg/km) are not met yet.
 
 use imade_host::eval::paper::Parameter;
-use imade_host::run::{RangeArg, RefineChoice, RunArgs, run};
+use imade_host::run::RangeArg;
 use std::path::Path;
 
 /// A dark body of 6.4 noise deviations with a bright plume, a hillside entering from the chip's
@@ -16,24 +16,11 @@ fn terrain_and_a_plume_do_not_take_the_bodys_place() {
     let clip = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/small-clutter-terrain");
     let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("clutter-terrain");
     let _ = std::fs::remove_dir_all(&out);
-    run(&RunArgs {
-        clips: vec![clip.clone()],
-        out: out.clone(),
-        range: RangeArg::Auto,
-        save_masks: true,
-        lut: "bundled".into(),
-        refine: RefineChoice(None),
-    })
-    .expect("the run succeeds");
-    let evaluation =
-        imade_host::eval::evaluate(&clip, &out.join("results.csv")).expect("the evaluation");
+    let evaluation = imade_tests::run_and_evaluate(&clip, "bundled", RangeArg::Auto, true, &out);
     let poses = evaluation.pose.frames_with_pose;
     let pitch = evaluation
         .pose
-        .parameters
-        .iter()
-        .find(|e| e.parameter == Parameter::Pitch)
-        .and_then(|e| e.stats)
+        .stats(Parameter::Pitch)
         .map_or(f64::NAN, |s| s.median);
     let iou = evaluation
         .segmentation

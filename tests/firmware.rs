@@ -14,7 +14,6 @@
 
 use anyhow::{Context, anyhow, ensure};
 use imade_core::Pipeline;
-use imade_host::model::command::{BuildArgs, MeshArgs};
 use imade_host::pack::pack_clip;
 use imade_host::run::{RangeArg, RunArgs, run};
 use imade_pack::{TableUse, read_header, read_record, replay};
@@ -42,25 +41,7 @@ fn firmware_runs_a_model_built_from_a_mesh() -> anyhow::Result<()> {
         std::fs::remove_dir_all(&dir)?;
     }
     std::fs::create_dir_all(&dir)?;
-    let mesh = dir.join(format!("{id}.obj"));
-    imade_host::model::command::mesh_command(&MeshArgs {
-        shape: id.into(),
-        out: mesh.clone(),
-    })?;
-    let model = dir.join(format!("{id}.model"));
-    imade_host::model::command::build_command(&BuildArgs {
-        model: None,
-        mesh: Some(mesh),
-        mesh_scale: 1.0,
-        diameter: Some(0.07),
-        id: None,
-        table: None,
-        no_table: false,
-        tilts: 91,
-        rolls: None,
-        stations: 96,
-        out: model.clone(),
-    })?;
+    let model = imade_tests::shape_model(&dir, id);
     let lut = model.to_str().context("a UTF-8 path")?;
     check_firmware(
         &root().join(format!("fixtures/small-{id}")),

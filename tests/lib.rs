@@ -9,6 +9,7 @@ pub mod render;
 use imade_core::lut::table::Table;
 use imade_core::{Camera, ProjectileModel};
 use render::Intrinsics;
+use std::path::{Path, PathBuf};
 
 /// The telescope of the tests' rendered chips (and of the fixtures): fx = fy = 100000 px, principal
 /// point at the centre of a 2048 x 2048 frame.
@@ -40,6 +41,64 @@ pub fn bundled_table() -> Table<'static> {
     reference_model()
         .table()
         .expect("the reference model carries its table")
+}
+
+/// Runs `clip` through `imade run` (its library) into `out`, with the model choice `lut`
+/// (`bundled` or a model file), the range use `range` and, with `save_masks`, the stage masks,
+/// and evaluates the results against the clip's truth (`imade eval`).
+pub fn run_and_evaluate(
+    clip: &Path,
+    lut: &str,
+    range: imade_host::run::RangeArg,
+    save_masks: bool,
+    out: &Path,
+) -> imade_host::eval::Evaluation {
+    imade_host::run::run(&imade_host::run::RunArgs {
+        clips: vec![clip.to_path_buf()],
+        out: out.to_path_buf(),
+        range,
+        save_masks,
+        lut: lut.to_owned(),
+        refine: imade_host::run::RefineChoice(None),
+    })
+    .expect("the run succeeds");
+    imade_host::eval::evaluate(clip, &out.join("results.csv")).expect("the evaluation")
+}
+
+/// `imade model build --mesh MESH --diameter D --id ID` with the default table grid, beside the
+/// mesh; the model file's path.
+pub fn model_from_mesh(mesh: &Path, id: &str, diameter_m: f64) -> PathBuf {
+    let out = mesh.with_extension("model");
+    imade_host::model::command::build_command(&imade_host::model::command::BuildArgs {
+        model: None,
+        mesh: Some(mesh.to_path_buf()),
+        mesh_scale: 1.0,
+        diameter: Some(diameter_m),
+        id: Some(id.into()),
+        table: None,
+        no_table: false,
+        tilts: 91,
+        rolls: None,
+        stations: 96,
+        out: out.clone(),
+    })
+    .unwrap_or_else(|e| panic!("{id}: {e:#}"));
+    out
+}
+
+/// The model file of the simulator's shape `id`, built in `dir` from its mesh as a user would:
+/// `imade model mesh --shape ID`, then `imade model build --mesh` with its diameter.
+pub fn shape_model(dir: &Path, id: &str) -> PathBuf {
+    let mesh = dir.join(format!("{id}.obj"));
+    imade_host::model::command::mesh_command(&imade_host::model::command::MeshArgs {
+        shape: id.into(),
+        out: mesh.clone(),
+    })
+    .expect("the shape's mesh");
+    let diameter_m = imade_host::sim::shapes::description(id)
+        .expect("a built-in shape")
+        .diameter_m;
+    model_from_mesh(&mesh, id, diameter_m)
 }
 
 /// A result's errors against the truth, normalized to 1 km (`docs/geometry.md`): Tx, Ty,

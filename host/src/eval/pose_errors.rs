@@ -76,6 +76,16 @@ pub struct PoseEvaluation {
     pub frames: Vec<FrameErrors>,
 }
 
+impl PoseEvaluation {
+    /// The statistics of `parameter`'s errors, where any frame had one.
+    pub fn stats(&self, parameter: Parameter) -> Option<Summary> {
+        self.parameters
+            .iter()
+            .find(|e| e.parameter == parameter)
+            .and_then(|e| e.stats)
+    }
+}
+
 /// Wraps an angle difference to (-180, 180] deg.
 pub fn wrap_deg(d: f64) -> f64 {
     let w = d.rem_euclid(360.0);
