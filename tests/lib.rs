@@ -60,6 +60,7 @@ pub fn run_and_evaluate(
         save_masks,
         lut: lut.to_owned(),
         refine: imade_host::run::RefineChoice(None),
+        range_smoothing: imade_host::run::SmoothingArg::default(),
     })
     .expect("the run succeeds");
     imade_host::eval::evaluate(clip, &out.join("results.csv")).expect("the evaluation")

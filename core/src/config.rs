@@ -3,9 +3,10 @@
 //! pipeline's own (how a range measurement is used).
 
 pub use crate::extremes::SilhouetteConfig;
+pub use crate::range_filter::RangeFilterConfig;
 pub use crate::segment::{DetectConfig, SizeTolerance};
 pub use crate::table_match::{GuidedLoopConfig, GuidedMethod, MatchConfig};
-pub use crate::temporal::TemporalConfig;
+pub use crate::temporal::{RangeSmoothing, TemporalConfig};
 pub use crate::track::TrackConfig;
 
 /// Which contrast polarity the projectile's body has against the sky.

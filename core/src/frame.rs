@@ -107,6 +107,9 @@ pub struct FrameResult {
     pub range_used: bool,
     /// Roll modulo 90 deg, where estimated.
     pub roll_deg: Option<f32>,
+    /// One sigma of `pose.tz_m`, m, where the motion model estimated it (the range from the
+    /// image, not a sensor's).
+    pub tz_sd_m: Option<f32>,
     /// Slant range measured from the image (before smoothing), m; 0 where not measured.
     pub image_range_m: f32,
     /// The silhouette's measurements.
@@ -182,7 +185,7 @@ impl FrameResult {
                 m.rms_px,
             ]
         });
-        let roll = [self.roll_deg.unwrap_or(0.0)];
+        let roll = [self.roll_deg.unwrap_or(0.0), self.tz_sd_m.unwrap_or(0.0)];
         [&pose[..], &other, &silhouette, &matched, &roll]
             .iter()
             .all(|values| values.iter().all(|v| v.is_finite()))
@@ -218,6 +221,7 @@ impl FrameResult {
             yaw_resolved: false,
             range_used: false,
             roll_deg: None,
+            tz_sd_m: None,
             image_range_m: 0.0,
             track: None,
             silhouette: None,

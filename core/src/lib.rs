@@ -40,6 +40,7 @@ pub mod model;
 pub mod pipeline;
 pub mod point;
 pub mod pose;
+pub mod range_filter;
 pub mod results;
 pub mod segment;
 #[cfg(feature = "shape-guided")]
@@ -51,8 +52,9 @@ pub mod track;
 pub use camera::Camera;
 pub use chip::{ChipError, ChipView};
 pub use config::{
-    BodyPolarity, Config, DetectConfig, GuidedLoopConfig, GuidedMethod, MatchConfig, RangeUse,
-    SilhouetteConfig, SizeTolerance, TemporalConfig, TrackConfig,
+    BodyPolarity, Config, DetectConfig, GuidedLoopConfig, GuidedMethod, MatchConfig,
+    RangeFilterConfig, RangeSmoothing, RangeUse, SilhouetteConfig, SizeTolerance, TemporalConfig,
+    TrackConfig,
 };
 pub use extremes::Silhouette;
 pub use frame::{FrameError, FrameInput, FrameResult, ResultFault, Status};

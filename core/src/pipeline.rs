@@ -22,6 +22,7 @@ use crate::mask::BitMask;
 use crate::model::ProjectileModel;
 use crate::point::ImagePoint;
 use crate::pose::Pose;
+use crate::range_filter::ImageScale;
 use crate::segment::{
     Expectation, ExpectedBody, SegmentError, Segmenter, Target, TrackGate, TrackUse,
 };
@@ -142,6 +143,10 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         let observation = measured.as_ref().ok().map(|(_, m)| Observation {
             image_range_m: m.image_range_m(),
             nose_dir: m.hypothesis.silhouette.axis.dir,
+            scale: ImageScale {
+                diameter_px: m.hypothesis.silhouette.diameter_px,
+                blur_px: m.hypothesis.silhouette.sigma_px,
+            },
         });
         let estimate = self.temporal.update(
             &prediction,
@@ -299,6 +304,8 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             yaw_resolved: estimate.choice.resolved,
             range_used: measured.hypothesis.sensor_range_m.is_some(),
             roll_deg: None,
+            // The depth is the slant range times the line of sight's cosine: so is its sigma.
+            tz_sd_m: estimate.range_sd_m.map(|sd| sd * tz_m / estimate.range_m),
             image_range_m: measured.image_range_m().unwrap_or(0.0),
             silhouette: Some(measured.hypothesis.silhouette),
             matched: measured.matched.map(|m| m.matched),

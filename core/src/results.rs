@@ -6,7 +6,7 @@ use crate::segment::TrackUse;
 use core::fmt::{self, Write};
 
 /// The header line (without a line end). The spec's columns, then imade's own.
-pub const HEADER: &str = "frame,status,tx_m,ty_m,tz_m,pitch_deg,yaw_deg,yaw_alt_deg,yaw_resolved,range_used,roll_deg,pitch_alt_deg,image_range_m,track";
+pub const HEADER: &str = "frame,status,tx_m,ty_m,tz_m,pitch_deg,yaw_deg,yaw_alt_deg,yaw_resolved,range_used,roll_deg,tz_sd_m,pitch_sd_deg,yaw_sd_deg,pitch_alt_deg,image_range_m,track";
 
 /// Writes one row (without a line end) for `frame`.
 pub fn write_row(out: &mut impl Write, frame: u64, result: &FrameResult) -> fmt::Result {
@@ -29,9 +29,14 @@ pub fn write_row(out: &mut impl Write, frame: u64, result: &FrameResult) -> fmt:
     if let Some(roll) = result.roll_deg {
         write!(out, "{roll:.3}")?;
     }
+    write!(out, ",")?;
+    if let Some(sd) = result.tz_sd_m {
+        write!(out, "{sd:.3}")?;
+    }
+    // pitch_sd_deg and yaw_sd_deg: not estimated yet.
     write!(
         out,
-        ",{:.4},{:.3},{}",
+        ",,,{:.4},{:.3},{}",
         result.pitch_alt_deg,
         result.image_range_m,
         result.track.map_or("", TrackUse::as_str)
@@ -44,5 +49,5 @@ pub fn write_status_row(out: &mut impl Write, frame: Option<u64>, status: &str) 
     if let Some(frame) = frame {
         write!(out, "{frame}")?;
     }
-    write!(out, ",{status},,,,,,,false,false,,,,")
+    write!(out, ",{status},,,,,,,false,false,,,,,,,")
 }

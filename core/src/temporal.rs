@@ -1,7 +1,9 @@
-//! Temporal state in fixed memory: range smoothing (the source paper's Eq. 5), the range trend
-//! over a window, and the yaw choice it resolves.
+//! Temporal state in fixed memory: range smoothing (the motion model's filter, or the source
+//! paper's Eq. 5), the range trend over a window, and the yaw choice it resolves.
 //!
-//! Eq. 5 blends the current estimate with the previous one: `Tz(t) = r Tz_meas + (1 - r) Tz(t-1)`.
+//! By default the image range goes through the motion model's Kalman filter
+//! ([`crate::range_filter`]), whose measurement noise is the window's own scatter
+//! (the scatter of each sample about its neighbours' chord). Eq. 5 stays for comparison with the source paper: it blends the current estimate with the previous one: `Tz(t) = r Tz_meas + (1 - r) Tz(t-1)`.
 //! A projectile's range changes by metres per frame, so blending with the previous value as it
 //! was would lag the truth by `(1 - r) / r` frames of motion; here the previous smoothed value is
 //! first carried to the current time along the window's robust trend. The trend is the
@@ -11,11 +13,28 @@
 
 use crate::capacity::MAX_WINDOW;
 use crate::point::ImagePoint;
+use crate::range_filter::{ImageScale, RangeFilter, RangeFilterConfig};
+
+/// How the image range is smoothed across frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RangeSmoothing {
+    /// The motion model's Kalman filter ([`crate::range_filter`]): range, rate and acceleration,
+    /// each frame weighted by the window's measured noise; gives the range's uncertainty.
+    MotionModel,
+    /// The source paper's Eq. 5 (`tz_smoothing_r`), carried along the window's trend; no
+    /// uncertainty.
+    Eq5,
+}
 
 /// The temporal stage's tunables.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TemporalConfig {
+    /// How the image range is smoothed.
+    pub range_smoothing: RangeSmoothing,
+    /// The motion model's tunables ([`RangeSmoothing::MotionModel`]).
+    pub range_filter: RangeFilterConfig,
     /// Weight `r` of the source paper's Eq. 5 Tz smoothing, in (0, 1], for frames
     /// `tz_smoothing_interval_s` apart; 1 disables smoothing.
     pub tz_smoothing_r: f32,
@@ -47,6 +66,8 @@ fn step_weight(config: &TemporalConfig, dt: f32) -> f32 {
 impl TemporalConfig {
     /// The defaults.
     pub const DEFAULT: TemporalConfig = TemporalConfig {
+        range_smoothing: RangeSmoothing::MotionModel,
+        range_filter: RangeFilterConfig::DEFAULT,
         tz_smoothing_r: 0.1,
         tz_smoothing_interval_s: 1.0 / 30.0,
         window_frames: 15,
@@ -81,6 +102,8 @@ pub struct Observation {
     pub image_range_m: Option<f32>,
     /// The nose's image direction.
     pub nose_dir: ImagePoint,
+    /// The scale the image range was read at.
+    pub scale: ImageScale,
 }
 
 /// The temporal stage's estimate for a frame with a pose.
@@ -88,6 +111,9 @@ pub struct Observation {
 pub struct Estimate {
     /// Slant range: the sensor's, else the smoothed image range, m.
     pub range_m: f32,
+    /// One sigma of `range_m` where the motion model gave it, m (None for the sensor's range,
+    /// whose noise the clip does not state, and for Eq. 5).
+    pub range_sd_m: Option<f32>,
     /// The yaw choice.
     pub choice: YawChoice,
 }
@@ -130,6 +156,7 @@ pub struct Temporal {
     origin_s: Option<f64>,
     last_t: f32,
     smoothed: Option<Sample>,
+    filter: RangeFilter,
     last_away: Option<bool>,
     nose_dir: Option<ImagePoint>,
 }
@@ -148,6 +175,7 @@ impl Temporal {
             origin_s: None,
             last_t: 0.0,
             smoothed: None,
+            filter: RangeFilter::new(),
             last_away: None,
             nose_dir: None,
         }
@@ -192,18 +220,32 @@ impl Temporal {
             self.push_range(t, r, config);
         }
         let observation = observation?;
-        let range_m = match (sensor_range_m, observation.image_range_m) {
-            (Some(r), _) => r,
-            (None, Some(r)) => {
-                let smoothed = self.smooth_range(t, r, config);
-                self.push_range(t, r, config);
-                smoothed
-            }
+        let (range_m, range_sd_m) = match (sensor_range_m, observation.image_range_m) {
+            (Some(r), _) => (r, None),
+            (None, Some(r)) => match config.range_smoothing {
+                RangeSmoothing::Eq5 => {
+                    let smoothed = self.smooth_range(t, r, config);
+                    self.push_range(t, r, config);
+                    (smoothed, None)
+                }
+                RangeSmoothing::MotionModel => {
+                    self.push_range(t, r, config);
+                    let filtered = self.filter.update(
+                        t,
+                        r,
+                        self.noise(),
+                        &observation.scale,
+                        &config.range_filter,
+                    )?;
+                    (filtered.range_m, Some(filtered.sd_m))
+                }
+            },
             (None, None) => return None,
         };
         self.nose_dir = Some(observation.nose_dir);
         Some(Estimate {
             range_m,
+            range_sd_m,
             choice: self.choose_yaw(config),
         })
     }

@@ -6,7 +6,9 @@ use crate::exit::PartialFailure;
 use crate::stages::{STAGES, mask_file_name};
 use crate::summary::{ClipSummary, Problem, RunSummary, SUMMARY_FORMAT};
 use anyhow::{Context, bail};
-use imade_core::{Config, FrameInput, GuidedMethod, Pipeline, RangeUse, Status, results};
+use imade_core::{
+    Config, FrameInput, GuidedMethod, Pipeline, RangeSmoothing, RangeUse, Status, results,
+};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -45,6 +47,26 @@ impl RangeArg {
     }
 }
 
+/// How the image range is smoothed across frames, as chosen with `--range-smoothing`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum SmoothingArg {
+    /// The motion model: a Kalman filter of range, rate and acceleration, with `tz_sd_m`.
+    #[default]
+    MotionModel,
+    /// The source paper's Eq. 5 (r = 0.1 per 1/30 s), for comparison; no `tz_sd_m`.
+    Eq5,
+}
+
+impl SmoothingArg {
+    /// The core's choice.
+    fn smoothing(self) -> RangeSmoothing {
+        match self {
+            SmoothingArg::MotionModel => RangeSmoothing::MotionModel,
+            SmoothingArg::Eq5 => RangeSmoothing::Eq5,
+        }
+    }
+}
+
 /// The shape-guided loop's method as chosen with `--refine`: a method, or none.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RefineChoice(pub Option<GuidedMethod>);
@@ -67,9 +89,12 @@ pub fn parse_refine(name: &str) -> Result<RefineChoice, String> {
     })
 }
 
-/// The core configuration of a job: the range use's, with the shape-guided method.
-fn job_config(range: RangeArg, refine: RefineChoice) -> Config {
-    range.config().with_guided_method(refine.0)
+/// The core configuration of a job: the range use's, with the shape-guided method and the
+/// range smoothing.
+fn job_config(job: &Job) -> Config {
+    let mut config = job.range.config().with_guided_method(job.refine.0);
+    config.temporal.range_smoothing = job.range_smoothing.smoothing();
+    config
 }
 
 /// Arguments of `imade run`.
@@ -99,6 +124,10 @@ pub struct RunArgs {
     /// table; docs/shape-guided.md).
     #[arg(long, default_value = "none", value_parser = parse_refine)]
     pub refine: RefineChoice,
+    /// How the range from the image is smoothed across frames: `motion-model` (a Kalman filter,
+    /// with `tz_sd_m`) or `eq5` (the source paper's Eq. 5, for comparison).
+    #[arg(long, value_enum, default_value = "motion-model")]
+    pub range_smoothing: SmoothingArg,
 }
 
 /// One clip to process and where its results go.
@@ -116,6 +145,8 @@ pub struct Job {
     pub lut: String,
     /// The shape-guided method (see [`RunArgs::refine`]).
     pub refine: RefineChoice,
+    /// The range smoothing (see [`RunArgs::range_smoothing`]).
+    pub range_smoothing: SmoothingArg,
 }
 
 /// Runs `imade run`. Every clip is processed independently; the outcome is an error carrying
@@ -175,6 +206,7 @@ fn plan(args: &RunArgs) -> anyhow::Result<Vec<Job>> {
             save_masks: args.save_masks,
             lut: args.lut.clone(),
             refine: args.refine,
+            range_smoothing: args.range_smoothing,
         })
         .collect();
     for (i, job) in jobs.iter().enumerate() {
@@ -250,7 +282,7 @@ fn pipeline_for(clip: &Clip, config: Config, lut: &str) -> anyhow::Result<Box<Pi
 
 /// Processes one opened clip and writes its results CSV atomically (and the stage masks).
 pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<ClipSummary> {
-    let mut pipeline = pipeline_for(clip, job_config(job.range, job.refine), &job.lut)?;
+    let mut pipeline = pipeline_for(clip, job_config(job), &job.lut)?;
     prepare_mask_folders(&job.out_dir, job.save_masks)?;
     let mut csv = String::from(results::HEADER);
     csv.push('\n');
@@ -411,6 +443,7 @@ mod tests {
             save_masks: true,
             lut: "bundled".into(),
             refine: RefineChoice(Some(GuidedMethod::GvfAsm)),
+            range_smoothing: SmoothingArg::default(),
         })?;
         let poses = std::fs::read_to_string(out.join("results.csv"))?
             .lines()

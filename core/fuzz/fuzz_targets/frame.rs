@@ -9,7 +9,8 @@ use imade_core::lut::table::Table;
 use imade_core::mask::ChipMask;
 use imade_core::{
     BodyPolarity, Camera, Config, DetectConfig, FrameInput, GuidedLoopConfig, GuidedMethod,
-    MatchConfig, Pipeline, RangeUse, SilhouetteConfig, SizeTolerance, TemporalConfig, TrackConfig,
+    MatchConfig, Pipeline, RangeFilterConfig, RangeSmoothing, RangeUse, SilhouetteConfig,
+    SizeTolerance, TemporalConfig, TrackConfig,
 };
 use imade_core_fuzz::{oracle, reference, synth};
 use libfuzzer_sys::fuzz_target;
@@ -232,6 +233,12 @@ fn config(spec: &ConfigSpec) -> Config {
                 max_age_s: t[3],
             },
             temporal: TemporalConfig {
+                range_smoothing: if tz_smoothing_r > 0.5 {
+                    RangeSmoothing::Eq5
+                } else {
+                    RangeSmoothing::MotionModel
+                },
+                range_filter: RangeFilterConfig::DEFAULT,
                 tz_smoothing_r,
                 tz_smoothing_interval_s,
                 window_frames: usize::from(window_frames),

@@ -29,6 +29,9 @@ pub struct ResultRow {
     pub range_used: bool,
     /// Roll modulo 90 deg, where estimated.
     pub roll_deg: Option<f64>,
+    /// One sigma of `tz_m`, m, where estimated.
+    #[serde(default)]
+    pub tz_sd_m: Option<f64>,
     /// Pitch of the mirrored candidate, deg (an imade column).
     #[serde(default)]
     pub pitch_alt_deg: Option<f64>,

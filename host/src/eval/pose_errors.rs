@@ -30,6 +30,8 @@ pub struct FrameErrors {
     pub yaw_choice_correct: bool,
     /// True when a range measurement fixed Tz in this frame.
     pub range_used: bool,
+    /// Where the row gives `tz_sd_m`: whether the Tz error is within two of those sigmas.
+    pub tz_within_two_sd: Option<bool>,
 }
 
 impl FrameErrors {
@@ -72,6 +74,9 @@ pub struct PoseEvaluation {
     pub parameters: Vec<ParameterErrors>,
     /// Fraction of frames with a pose whose chosen yaw candidate is the better one.
     pub yaw_choice_correct: Option<f64>,
+    /// Fraction of frames with `tz_sd_m` whose Tz error is within two of its sigmas (honest
+    /// sigmas give about 95 %); None where no row has one.
+    pub tz_within_two_sd: Option<f64>,
     /// Per-frame errors.
     pub frames: Vec<FrameErrors>,
 }
@@ -115,6 +120,10 @@ pub fn frame_errors(frame: u64, truth: &GroundTruth, row: &ResultRow) -> Option<
         yaw_best: yaw.min(yaw_alt),
         yaw_choice_correct: yaw <= yaw_alt,
         range_used: row.range_used,
+        tz_within_two_sd: row
+            .tz_sd_m
+            .zip(row.tz_m)
+            .map(|(sd, tz)| (tz - truth.tz_m).abs() <= 2.0 * sd),
     })
 }
 
@@ -144,12 +153,15 @@ pub fn evaluate(truth: &[(u64, GroundTruth)], results: &[ResultRow]) -> PoseEval
         })
         .collect();
     let correct = frames.iter().filter(|f| f.yaw_choice_correct).count();
+    let with_sd: Vec<bool> = frames.iter().filter_map(|f| f.tz_within_two_sd).collect();
+    let within = with_sd.iter().filter(|w| **w).count();
     PoseEvaluation {
         case,
         frames_with_truth: truth.len(),
         frames_with_pose: frames.len(),
         parameters,
         yaw_choice_correct: (!frames.is_empty()).then(|| correct as f64 / frames.len() as f64),
+        tz_within_two_sd: (!with_sd.is_empty()).then(|| within as f64 / with_sd.len() as f64),
         frames,
     }
 }
@@ -182,6 +194,7 @@ mod tests {
             yaw_resolved: false,
             range_used: false,
             roll_deg: None,
+            tz_sd_m: Some(60.0),
             pitch_alt_deg: None,
             image_range_m: None,
         }
@@ -196,6 +209,8 @@ mod tests {
         assert!((e.pitch - 3.0).abs() < 1e-9);
         assert!((e.yaw - 1.0).abs() < 1e-9);
         assert!(e.yaw_choice_correct);
+        // 100 m off with a sigma of 60 m: within two sigmas.
+        assert_eq!(e.tz_within_two_sd, Some(true));
     }
 
     #[test]

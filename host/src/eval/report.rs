@@ -83,6 +83,14 @@ fn write_pose_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Re
             opt(e.pose.yaw_choice_correct, |f| format!("{:.1}", 100.0 * f))
         )?;
     }
+    write!(s, "\n| Tz within two of its sigmas (tz_sd_m) | % |")?;
+    for e in evaluations {
+        write!(
+            s,
+            " {} | | | |",
+            opt(e.pose.tz_within_two_sd, |f| format!("{:.1}", 100.0 * f))
+        )?;
+    }
     writeln!(s, "\n")
 }
 
