@@ -127,23 +127,10 @@ impl RangeFilter {
         RangeFilter { track: None }
     }
 
-    /// Forgets the track.
-    pub fn reset(&mut self) {
-        self.track = None;
-    }
-
-    /// The range predicted at time `t` (s) from the frames so far, m; None before any.
-    pub fn predicted_range(&self, t: f32) -> Option<f32> {
-        let track = self.track.as_ref()?;
-        let x = transition(f64::from(t - track.t)) * track.x;
-        let range = x[0] as f32;
-        (range.is_finite() && range > 0.0).then_some(range)
-    }
-
     /// Takes the image range `measured_m` at time `t` (s, after the last frame's), read at
-    /// `scale`, whose noise the window puts at `noise_sd_m` (one
-    /// sigma, m; None while unknown), and returns the filtered range. A measurement that is not
-    /// finite and positive leaves the filter as it was and gives None.
+    /// `scale`, whose noise the window puts at `noise_sd_m` (one sigma, m; None while unknown),
+    /// and returns the filtered range. A measurement that is not finite and positive leaves the
+    /// filter as it was and gives None.
     pub fn update(
         &mut self,
         t: f32,
@@ -166,10 +153,10 @@ impl RangeFilter {
             _ => initial(z, noise, config),
         };
         let (x, p) = correct(x, p, z, noise * noise, f64::from(config.huber_sigmas));
-        let systematic = f64::from(scale.systematic_fraction(config)) * x[0];
+        let systematic = f64::from(scale.systematic_fraction(config)) * x.x;
         let estimate = RangeEstimate {
-            range_m: x[0] as f32,
-            sd_m: libm::sqrt(p[(0, 0)].max(0.0) + systematic * systematic) as f32,
+            range_m: x.x as f32,
+            sd_m: libm::sqrt(p.m11.max(0.0) + systematic * systematic) as f32,
         };
         if !(estimate.range_m.is_finite() && estimate.range_m > 0.0 && estimate.sd_m.is_finite()) {
             // An absurd input (found by fuzzing) overflowed the state: start afresh next time.
@@ -223,23 +210,23 @@ fn initial(z: f64, noise: f64, config: &RangeFilterConfig) -> (State, Covariance
 /// The measurement `z` with variance `r` folded into the predicted state (`x`, `p`); an
 /// innovation beyond `huber` sigmas has its variance raised to put it at `huber` sigmas.
 fn correct(x: State, p: Covariance, z: f64, r: f64, huber: f64) -> (State, Covariance) {
-    let innovation = z - x[0];
-    let predicted = p[(0, 0)] + r;
-    let distance = libm::fabs(innovation) / libm::sqrt(predicted.max(f64::MIN_POSITIVE));
+    let innovation = z - x.x;
+    let spread = p.m11 + r;
+    let distance = libm::fabs(innovation) / libm::sqrt(spread.max(f64::MIN_POSITIVE));
     let r = if distance > huber && huber > 0.0 {
-        r + predicted * ((distance / huber) - 1.0)
+        r + spread * ((distance / huber) - 1.0)
     } else {
         r
     };
-    let s = p[(0, 0)] + r;
+    // The innovation's variance with the (raised) measurement variance.
+    let s = p.m11 + r;
     if !(s.is_finite() && s > 0.0) {
         return (x, p);
     }
     let gain = p.column(0) / s;
     let x = x + gain * innovation;
     // Joseph's form keeps the covariance symmetric and positive.
-    let mut h = SMatrix::<f64, 1, 3>::zeros();
-    h[(0, 0)] = 1.0;
+    let h = SMatrix::<f64, 1, 3>::new(1.0, 0.0, 0.0);
     let i_kh = Covariance::identity() - gain * h;
     let p = i_kh * p * i_kh.transpose() + gain * gain.transpose() * r;
     (x, p)
@@ -322,7 +309,11 @@ mod tests {
         }
         let lag = last.unwrap();
         assert!(lag.abs() < 0.05, "lag {lag} m");
-        assert!((filter.predicted_range(40.0 / 30.0).unwrap() - 1360.0).abs() < 0.1);
+        // A measurement given no weight leaves the prediction: the rate was learned.
+        let predicted = filter
+            .update(40.0 / 30.0, 5000.0, Some(1e7), &SCALE, &config)
+            .unwrap();
+        assert!((predicted.range_m - 1360.0).abs() < 0.1, "{predicted:?}");
     }
 
     /// One frame 30 % off moves the estimate by a few sigmas at most, not by the 30 %.
@@ -356,7 +347,11 @@ mod tests {
         for bad in [f32::NAN, f32::INFINITY, -5.0, 0.0] {
             assert!(filter.update(0.1, bad, None, &SCALE, &config).is_none());
         }
-        assert!((filter.predicted_range(0.1).unwrap() - 1000.0).abs() < 1e-3);
+        // The track survived: a measurement given no weight leaves its range.
+        let kept = filter
+            .update(0.1, 5000.0, Some(1e7), &SCALE, &config)
+            .unwrap();
+        assert!((kept.range_m - 1000.0).abs() < 1e-3, "{kept:?}");
         let huge = filter.update(
             0.2,
             f32::MAX,

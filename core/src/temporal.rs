@@ -2,8 +2,9 @@
 //! paper's Eq. 5), the range trend over a window, and the yaw choice it resolves.
 //!
 //! By default the image range goes through the motion model's Kalman filter
-//! ([`crate::range_filter`]), whose measurement noise is the window's own scatter
-//! (the scatter of each sample about its neighbours' chord). Eq. 5 stays for comparison with the source paper: it blends the current estimate with the previous one: `Tz(t) = r Tz_meas + (1 - r) Tz(t-1)`.
+//! ([`crate::range_filter`]), whose measurement noise is the window's own scatter (of each
+//! sample about its neighbours' chord). Eq. 5 stays for comparison with the source paper: it
+//! blends the current estimate with the previous one: `Tz(t) = r Tz_meas + (1 - r) Tz(t-1)`.
 //! A projectile's range changes by metres per frame, so blending with the previous value as it
 //! was would lag the truth by `(1 - r) / r` frames of motion; here the previous smoothed value is
 //! first carried to the current time along the window's robust trend. The trend is the
