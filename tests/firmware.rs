@@ -66,6 +66,7 @@ fn check_firmware(clip: &Path, lut: &str, dir: &Path) -> anyhow::Result<()> {
         lut: lut.into(),
         refine: imade_host::run::RefineChoice(None),
         range_smoothing: imade_host::run::SmoothingArg::default(),
+        smooth: false,
     })?;
     let host_csv = host_dir.join("results.csv");
     let packed = dir.join("clip.pack");

@@ -53,7 +53,7 @@ pub fn run_and_evaluate(
     save_masks: bool,
     out: &Path,
 ) -> imade_host::eval::Evaluation {
-    imade_host::run::run(&imade_host::run::RunArgs {
+    evaluate_run(imade_host::run::RunArgs {
         clips: vec![clip.to_path_buf()],
         out: out.to_path_buf(),
         range,
@@ -61,9 +61,16 @@ pub fn run_and_evaluate(
         lut: lut.to_owned(),
         refine: imade_host::run::RefineChoice(None),
         range_smoothing: imade_host::run::SmoothingArg::default(),
+        smooth: false,
     })
-    .expect("the run succeeds");
-    imade_host::eval::evaluate(clip, &out.join("results.csv")).expect("the evaluation")
+}
+
+/// Runs `imade run` (its library) with `args` of one clip and evaluates its results against the
+/// clip's truth (`imade eval`).
+pub fn evaluate_run(args: imade_host::run::RunArgs) -> imade_host::eval::Evaluation {
+    imade_host::run::run(&args).expect("the run succeeds");
+    imade_host::eval::evaluate(&args.clips[0], &args.out.join("results.csv"))
+        .expect("the evaluation")
 }
 
 /// `imade model build --mesh MESH --diameter D --id ID` with the default table grid, beside the

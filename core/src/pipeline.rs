@@ -22,7 +22,7 @@ use crate::mask::BitMask;
 use crate::model::ProjectileModel;
 use crate::point::ImagePoint;
 use crate::pose::Pose;
-use crate::range_filter::ImageScale;
+use crate::range_filter::{FilterStep, ImageScale};
 use crate::segment::{
     Expectation, ExpectedBody, SegmentError, Segmenter, Target, TrackGate, TrackUse,
 };
@@ -37,6 +37,20 @@ struct CheckedInput<'a> {
     chip: &'a ChipView<'a>,
     time_s: f64,
     sensor_range_m: Option<f32>,
+}
+
+/// What a frame's ok result was solved from: kept so that a recorded clip's frames can be solved
+/// again at a smoothed range ([`Pipeline::resolve`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Solved {
+    /// The frame's measurement (closed form and table match).
+    pub measurement: Measurement,
+    /// The temporal estimate it was solved at.
+    pub estimate: Estimate,
+    /// How detection used the track.
+    pub track: TrackUse,
+    /// The range filter's step at this frame, where the motion model gave the range.
+    pub range_step: Option<FilterStep>,
 }
 
 /// The pipeline with its stages: `MAX_RUNS` and `MAX_LABELS` size the detection's labeler,
@@ -55,6 +69,7 @@ pub struct Pipeline<
     table_match: TableMatch<MASK_WORDS>,
     temporal: Temporal,
     track: Track,
+    solved: Option<Solved>,
 }
 
 impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
@@ -70,6 +85,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             table_match: TableMatch::new(),
             temporal: Temporal::new(),
             track: Track::new(),
+            solved: None,
         }
     }
 
@@ -122,6 +138,22 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         self.table_match.matched()
     }
 
+    /// What the last frame's ok result was solved from (None where it gave no pose).
+    pub fn last_solved(&self) -> Option<&Solved> {
+        self.solved.as_ref()
+    }
+
+    /// The ok result of a frame `solved` earlier, solved again at another temporal `estimate`
+    /// (a smoothed range and yaw choice); an `Unmeasurable` one where that pose breaks the
+    /// result's contract.
+    pub fn resolve(&self, solved: &Solved, estimate: &Estimate) -> FrameResult {
+        let result = self.result(&solved.measurement, estimate, solved.track);
+        match result.check() {
+            Ok(()) => result,
+            Err(_) => FrameResult::from_error(FrameError::Unmeasurable),
+        }
+    }
+
     /// Forgets the temporal state (a new clip).
     pub fn reset(&mut self) {
         self.temporal.reset();
@@ -133,6 +165,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
     /// Processes one frame: detection, silhouette, closed form, table match, temporal estimate.
     pub fn process(&mut self, input: &FrameInput) -> FrameResult {
         self.table_match.clear();
+        self.solved = None;
         let input = match self.check(input) {
             Ok(input) => input,
             Err(e) => return FrameResult::from_error(e),
@@ -154,8 +187,13 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             observation,
             &self.config.temporal,
         );
-        let (result, target) = match (measured, estimate) {
-            (Ok((target, m)), Some(estimate)) => (self.result(&m, &estimate, target.track), target),
+        let (result, target, measurement, estimate) = match (measured, estimate) {
+            (Ok((target, m)), Some(estimate)) => (
+                self.result(&m, &estimate, target.track),
+                target,
+                m,
+                estimate,
+            ),
             (Err(e), _) => return FrameResult::from_error(e),
             (Ok(_), None) => return FrameResult::from_error(FrameError::Unmeasurable),
         };
@@ -166,6 +204,13 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             return FrameResult::from_error(FrameError::Unmeasurable);
         }
         self.track.update(input.time_s, &target);
+        self.solved = Some(Solved {
+            measurement,
+            estimate,
+            track: target.track,
+            // The filter took this frame where it gave the range's sigma.
+            range_step: self.temporal.range_step(prediction.t),
+        });
         result
     }
 

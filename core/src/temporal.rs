@@ -14,7 +14,7 @@
 
 use crate::capacity::MAX_WINDOW;
 use crate::point::ImagePoint;
-use crate::range_filter::{ImageScale, RangeFilter, RangeFilterConfig};
+use crate::range_filter::{FilterStep, ImageScale, RangeFilter, RangeFilterConfig};
 
 /// How the image range is smoothed across frames.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -150,6 +150,25 @@ pub struct YawChoice {
     pub resolved: bool,
 }
 
+impl YawChoice {
+    /// The choice a range rate of `rate_m_s` ± `sd_m_s` (one sigma) makes: the side of its sign
+    /// (a growing range: the nose points away in nose-first flight), the likelier one, resolved
+    /// where the rate differs from zero by more than `sigmas` sigmas; `fallback`, unresolved,
+    /// where it has no sign.
+    pub fn of_rate(rate_m_s: f32, sd_m_s: f32, sigmas: f32, fallback: bool) -> YawChoice {
+        if !(rate_m_s.is_finite() && rate_m_s != 0.0) {
+            return YawChoice {
+                away: fallback,
+                resolved: false,
+            };
+        }
+        YawChoice {
+            away: rate_m_s > 0.0,
+            resolved: libm::fabsf(rate_m_s) > sigmas * sd_m_s,
+        }
+    }
+}
+
 /// The temporal state.
 #[derive(Debug, Clone)]
 pub struct Temporal {
@@ -180,6 +199,12 @@ impl Temporal {
             last_away: None,
             nose_dir: None,
         }
+    }
+
+    /// The range filter's step at the frame of time `t` (s, [`Prediction::t`]), where it took
+    /// that frame's range.
+    pub fn range_step(&self, t: f32) -> Option<FilterStep> {
+        self.filter.last_step().filter(|step| step.time_s() == t)
     }
 
     /// Forgets everything.
@@ -219,6 +244,11 @@ impl Temporal {
         let t = prediction.t;
         if let Some(r) = sensor_range_m {
             self.push_range(t, r, config);
+            // The sensor's range goes through the motion model too: its rate decides the yaw
+            // side of a smoothed recorded clip (`crate::range_filter::smooth`).
+            let _ =
+                self.filter
+                    .update(t, r, self.noise(), &ImageScale::SHARP, &config.range_filter);
         }
         let observation = observation?;
         let (range_m, range_sd_m) = match (sensor_range_m, observation.image_range_m) {

@@ -51,6 +51,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             lut: args.lut.clone(),
             refine: crate::run::RefineChoice(None),
             range_smoothing: crate::run::SmoothingArg::default(),
+            smooth: false,
         })
         .collect();
     eprintln!(

@@ -24,5 +24,6 @@ pub mod pack;
 pub mod plot;
 pub mod run;
 pub mod sim;
+pub mod smooth;
 pub mod stages;
 pub mod summary;

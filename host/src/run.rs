@@ -3,6 +3,7 @@
 
 use crate::clip::{Clip, FrameRow, save_mask, write_atomically};
 use crate::exit::PartialFailure;
+use crate::smooth::{Recorded, smoothed_results};
 use crate::stages::{STAGES, mask_file_name};
 use crate::summary::{ClipSummary, Problem, RunSummary, SUMMARY_FORMAT};
 use anyhow::{Context, bail};
@@ -128,6 +129,11 @@ pub struct RunArgs {
     /// with `tz_sd_m`) or `eq5` (the source paper's Eq. 5, for comparison).
     #[arg(long, value_enum, default_value = "motion-model")]
     pub range_smoothing: SmoothingArg,
+    /// A recorded clip: smooth the motion model's range forwards and backwards, so that each
+    /// frame's range, its sigma and the yaw side use the frames after it too (the default is
+    /// causal, as on the mount).
+    #[arg(long)]
+    pub smooth: bool,
 }
 
 /// One clip to process and where its results go.
@@ -147,6 +153,8 @@ pub struct Job {
     pub refine: RefineChoice,
     /// The range smoothing (see [`RunArgs::range_smoothing`]).
     pub range_smoothing: SmoothingArg,
+    /// Smooth forwards and backwards (see [`RunArgs::smooth`]).
+    pub smooth: bool,
 }
 
 /// Runs `imade run`. Every clip is processed independently; the outcome is an error carrying
@@ -207,6 +215,7 @@ fn plan(args: &RunArgs) -> anyhow::Result<Vec<Job>> {
             lut: args.lut.clone(),
             refine: args.refine,
             range_smoothing: args.range_smoothing,
+            smooth: args.smooth,
         })
         .collect();
     for (i, job) in jobs.iter().enumerate() {
@@ -280,28 +289,40 @@ fn pipeline_for(clip: &Clip, config: Config, lut: &str) -> anyhow::Result<Box<Pi
     }))
 }
 
+/// One row of a clip's results, before the results file is written.
+enum Row {
+    /// A frame the pipeline processed.
+    Frame(u64, imade_core::FrameResult),
+    /// A frame or line that could not be processed: its frame number where known, and status.
+    Unusable(Option<u64>, &'static str),
+}
+
 /// Processes one opened clip and writes its results CSV atomically (and the stage masks).
 pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<ClipSummary> {
     let mut pipeline = pipeline_for(clip, job_config(job), &job.lut)?;
     prepare_mask_folders(&job.out_dir, job.save_masks)?;
-    let mut csv = String::from(results::HEADER);
-    csv.push('\n');
     let mut summary = ClipSummary {
         clip: clip.dir.clone(),
         range: job.range.name().into(),
         ..ClipSummary::default()
     };
+    let mut rows = Vec::with_capacity(clip.frames.len());
+    let mut recorded = Vec::new();
     for entry in &clip.frames {
         bar.inc(1);
-        let status = match entry {
+        let row = match entry {
             Ok(row) => match process_frame(clip, row, &mut pipeline) {
                 Ok(result) => {
-                    results::write_row(&mut csv, row.frame, &result)
-                        .context("formatting a results row")?;
                     if job.save_masks && result.status != Status::BadInput {
                         save_stage_masks(&pipeline, &job.out_dir, row.frame)?;
                     }
-                    result.status.as_str()
+                    if let Some(solved) = pipeline.last_solved() {
+                        recorded.push(Recorded {
+                            row: rows.len(),
+                            solved: *solved,
+                        });
+                    }
+                    Row::Frame(row.frame, result)
                 }
                 Err(error) => {
                     let message = format!(
@@ -311,17 +332,36 @@ pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<Cli
                         row.line
                     );
                     report(bar, &mut summary, row.line, Some(row.frame), message);
-                    results::write_status_row(&mut csv, Some(row.frame), "bad_chip")
-                        .context("formatting a results row")?;
-                    "bad_chip"
+                    Row::Unusable(Some(row.frame), "bad_chip")
                 }
             },
             Err(error) => {
                 let message = format!("{}: {error}", clip.dir.display());
                 report(bar, &mut summary, error.line, error.frame, message);
-                results::write_status_row(&mut csv, error.frame, "bad_row")
+                Row::Unusable(error.frame, "bad_row")
+            }
+        };
+        rows.push(row);
+    }
+    if job.smooth {
+        for (index, result) in smoothed_results(&pipeline, &recorded) {
+            if let Some(Row::Frame(_, kept)) = rows.get_mut(index) {
+                *kept = result;
+            }
+        }
+    }
+    let mut csv = String::from(results::HEADER);
+    csv.push('\n');
+    for row in &rows {
+        let status = match row {
+            Row::Frame(frame, result) => {
+                results::write_row(&mut csv, *frame, result).context("formatting a results row")?;
+                result.status.as_str()
+            }
+            Row::Unusable(frame, status) => {
+                results::write_status_row(&mut csv, *frame, status)
                     .context("formatting a results row")?;
-                "bad_row"
+                status
             }
         };
         summary.count(status);
@@ -444,6 +484,7 @@ mod tests {
             lut: "bundled".into(),
             refine: RefineChoice(Some(GuidedMethod::GvfAsm)),
             range_smoothing: SmoothingArg::default(),
+            smooth: false,
         })?;
         let poses = std::fs::read_to_string(out.join("results.csv"))?
             .lines()
