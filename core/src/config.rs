@@ -8,6 +8,7 @@ pub use crate::segment::{DetectConfig, SizeTolerance};
 pub use crate::table_match::{GuidedLoopConfig, GuidedMethod, MatchConfig};
 pub use crate::temporal::{RangeSmoothing, TemporalConfig};
 pub use crate::track::TrackConfig;
+pub use crate::uncertainty::UncertaintyConfig;
 
 /// Which contrast polarity the projectile's body has against the sky.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -55,6 +56,8 @@ pub struct Config {
     pub temporal: TemporalConfig,
     /// The detection track: the gate on the next frame's candidates.
     pub track: TrackConfig,
+    /// The pose's uncertainties: the ends' precision.
+    pub uncertainty: UncertaintyConfig,
 }
 
 impl Config {
@@ -66,6 +69,7 @@ impl Config {
         table_match: MatchConfig::DEFAULT,
         temporal: TemporalConfig::DEFAULT,
         track: TrackConfig::DEFAULT,
+        uncertainty: UncertaintyConfig::DEFAULT,
     };
 }
 

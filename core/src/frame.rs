@@ -110,6 +110,10 @@ pub struct FrameResult {
     /// One sigma of `pose.tz_m`, m, where the motion model estimated it (the range from the
     /// image, not a sensor's).
     pub tz_sd_m: Option<f32>,
+    /// One sigma of `pose.pitch_deg`, deg.
+    pub pitch_sd_deg: f32,
+    /// One sigma of `pose.yaw_deg`, deg.
+    pub yaw_sd_deg: f32,
     /// Slant range measured from the image (before smoothing), m; 0 where not measured.
     pub image_range_m: f32,
     /// The silhouette's measurements.
@@ -185,8 +189,13 @@ impl FrameResult {
                 m.rms_px,
             ]
         });
-        let roll = [self.roll_deg.unwrap_or(0.0), self.tz_sd_m.unwrap_or(0.0)];
-        [&pose[..], &other, &silhouette, &matched, &roll]
+        let uncertain = [
+            self.roll_deg.unwrap_or(0.0),
+            self.tz_sd_m.unwrap_or(0.0),
+            self.pitch_sd_deg,
+            self.yaw_sd_deg,
+        ];
+        [&pose[..], &other, &silhouette, &matched, &uncertain]
             .iter()
             .all(|values| values.iter().all(|v| v.is_finite()))
     }
@@ -222,6 +231,8 @@ impl FrameResult {
             range_used: false,
             roll_deg: None,
             tz_sd_m: None,
+            pitch_sd_deg: 0.0,
+            yaw_sd_deg: 0.0,
             image_range_m: 0.0,
             track: None,
             silhouette: None,

@@ -48,13 +48,14 @@ pub mod shape_guided;
 pub mod table_match;
 pub mod temporal;
 pub mod track;
+pub mod uncertainty;
 
 pub use camera::Camera;
 pub use chip::{ChipError, ChipView};
 pub use config::{
     BodyPolarity, Config, DetectConfig, GuidedLoopConfig, GuidedMethod, MatchConfig,
     RangeFilterConfig, RangeSmoothing, RangeUse, SilhouetteConfig, SizeTolerance, TemporalConfig,
-    TrackConfig,
+    TrackConfig, UncertaintyConfig,
 };
 pub use extremes::Silhouette;
 pub use frame::{FrameError, FrameInput, FrameResult, ResultFault, Status};

@@ -13,7 +13,7 @@
 use crate::camera::Camera;
 use crate::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS};
 use crate::chip::ChipView;
-use crate::closed_form::{ClosedForm, Hypothesis};
+use crate::closed_form::Hypothesis;
 use crate::config::{Config, RangeUse};
 use crate::extremes::{self, Silhouette};
 use crate::frame::{FrameError, FrameInput, FrameResult, Status};
@@ -31,6 +31,7 @@ use crate::table_match::guided_loop::LoopOutcome;
 use crate::table_match::{MatchedPose, Measurement, TableMatch};
 use crate::temporal::{Estimate, Observation, Prediction, Temporal};
 use crate::track::Track;
+use crate::uncertainty::{self, AngleVariance, EndSd};
 
 /// A frame's input, checked: the range to use and the camera valid.
 struct CheckedInput<'a> {
@@ -49,6 +50,8 @@ pub struct Solved {
     pub estimate: Estimate,
     /// How detection used the track.
     pub track: TrackUse,
+    /// One sigma of the silhouette's ends ([`uncertainty::end_sd`]).
+    pub end_sd: EndSd,
     /// The range filter's step at this frame, where the motion model gave the range.
     pub range_step: Option<FilterStep>,
 }
@@ -147,7 +150,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
     /// (a smoothed range and yaw choice); an `Unmeasurable` one where that pose breaks the
     /// result's contract.
     pub fn resolve(&self, solved: &Solved, estimate: &Estimate) -> FrameResult {
-        let result = self.result(&solved.measurement, estimate, solved.track);
+        let result = self.result(&solved.measurement, estimate, solved.end_sd, solved.track);
         match result.check() {
             Ok(()) => result,
             Err(_) => FrameResult::from_error(FrameError::Unmeasurable),
@@ -187,16 +190,18 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             observation,
             &self.config.temporal,
         );
-        let (result, target, measurement, estimate) = match (measured, estimate) {
-            (Ok((target, m)), Some(estimate)) => (
-                self.result(&m, &estimate, target.track),
-                target,
-                m,
-                estimate,
-            ),
+        let (target, measurement, estimate) = match (measured, estimate) {
+            (Ok((target, m)), Some(estimate)) => (target, m, estimate),
             (Err(e), _) => return FrameResult::from_error(e),
             (Ok(_), None) => return FrameResult::from_error(FrameError::Unmeasurable),
         };
+        let end_sd = uncertainty::end_sd(
+            &measurement.hypothesis.silhouette,
+            self.detect.background().sigma(),
+            measurement.matched.as_ref().map(|m| m.matched.rms_px),
+            &self.config.uncertainty,
+        );
+        let result = self.result(&measurement, &estimate, end_sd, target.track);
         // Finite but extreme intrinsics or ranges can overflow the geometry, or underflow the
         // depth to the camera's plane (found by fuzzing): such a pose is no pose.
         if result.check().is_err() {
@@ -208,7 +213,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             measurement,
             estimate,
             track: target.track,
-            // The filter took this frame where it gave the range's sigma.
+            end_sd,
             range_step: self.temporal.range_step(prediction.t),
         });
         result
@@ -324,15 +329,43 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         })
     }
 
-    /// The ok result of `measured` at the temporal `estimate`.
-    fn result(&self, measured: &Measurement, estimate: &Estimate, track: TrackUse) -> FrameResult {
-        let solution: ClosedForm = measured.at_range(&self.camera, &self.model, estimate.range_m);
-        let [away, towards] = solution.candidates;
-        let (chosen, alternative) = if estimate.choice.away {
-            (away, towards)
-        } else {
-            (towards, away)
+    /// The ok result of `measured` at the temporal `estimate`, its ends placed to `end_sd`: the
+    /// angles' sigmas carry that and the range's sigma through the solution
+    /// ([`crate::uncertainty`]); they are the chosen candidate's, not counting the choice.
+    fn result(
+        &self,
+        measured: &Measurement,
+        estimate: &Estimate,
+        end_sd: EndSd,
+        track: TrackUse,
+    ) -> FrameResult {
+        let chosen_at = |range_m: f32| {
+            let solution = measured.at_range(&self.camera, &self.model, range_m);
+            let [away, towards] = solution.candidates;
+            if estimate.choice.away {
+                (solution, away, towards)
+            } else {
+                (solution, towards, away)
+            }
         };
+        let (solution, chosen, alternative) = chosen_at(estimate.range_m);
+        let sil = &measured.hypothesis.silhouette;
+        // The apparent length's fractional sigma moves the aspect as the range's does.
+        let length_px = libm::fabsf(sil.nose_t - sil.tail_t);
+        let length_fraction = core::f32::consts::SQRT_2 * end_sd.along_px / length_px;
+        let range_fraction = estimate.range_sd_m.map_or(0.0, |sd| sd / estimate.range_m);
+        let fraction =
+            libm::sqrtf(length_fraction * length_fraction + range_fraction * range_fraction)
+                .min(0.5);
+        let mut variance = AngleVariance::default();
+        variance.add_half_gap(
+            &chosen_at(estimate.range_m * (1.0 + fraction)).1,
+            &chosen_at(estimate.range_m * (1.0 - fraction)).1,
+        );
+        let [x, y, z] = solution.translation;
+        let in_plane_rad = core::f32::consts::SQRT_2 * end_sd.across_px / length_px;
+        variance.add_in_plane(&chosen, nalgebra::Vector3::new(x, y, z), in_plane_rad);
+        let (pitch_sd_deg, yaw_sd_deg) = variance.sd_deg();
         let [tx_m, ty_m, tz_m] = solution.translation;
         FrameResult {
             status: Status::Ok,
@@ -351,6 +384,8 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             roll_deg: None,
             // The depth is the slant range times the line of sight's cosine: so is its sigma.
             tz_sd_m: estimate.range_sd_m.map(|sd| sd * tz_m / estimate.range_m),
+            pitch_sd_deg,
+            yaw_sd_deg,
             image_range_m: measured.image_range_m().unwrap_or(0.0),
             silhouette: Some(measured.hypothesis.silhouette),
             matched: measured.matched.map(|m| m.matched),

@@ -33,10 +33,11 @@ pub fn write_row(out: &mut impl Write, frame: u64, result: &FrameResult) -> fmt:
     if let Some(sd) = result.tz_sd_m {
         write!(out, "{sd:.3}")?;
     }
-    // pitch_sd_deg and yaw_sd_deg: not estimated yet.
     write!(
         out,
-        ",,,{:.4},{:.3},{}",
+        ",{:.4},{:.4},{:.4},{:.3},{}",
+        result.pitch_sd_deg,
+        result.yaw_sd_deg,
         result.pitch_alt_deg,
         result.image_range_m,
         result.track.map_or("", TrackUse::as_str)

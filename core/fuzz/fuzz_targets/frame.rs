@@ -10,7 +10,7 @@ use imade_core::mask::ChipMask;
 use imade_core::{
     BodyPolarity, Camera, Config, DetectConfig, FrameInput, GuidedLoopConfig, GuidedMethod,
     MatchConfig, Pipeline, RangeFilterConfig, RangeSmoothing, RangeUse, SilhouetteConfig,
-    SizeTolerance, TemporalConfig, TrackConfig,
+    SizeTolerance, TemporalConfig, TrackConfig, UncertaintyConfig,
 };
 use imade_core_fuzz::{oracle, reference, synth};
 use libfuzzer_sys::fuzz_target;
@@ -78,6 +78,8 @@ enum ConfigSpec {
         end_weight: f32,
         /// Every tunable of the silhouette stage, in its field order.
         silhouette: [f32; 12],
+        /// Every tunable of the uncertainties, in their field order.
+        uncertainty: [f32; 4],
     },
 }
 
@@ -174,6 +176,7 @@ fn config(spec: &ConfigSpec) -> Config {
             min_cylinder_px,
             end_weight,
             silhouette: s,
+            uncertainty: u,
         } => Config {
             range_use: range_use(ignore_range),
             detect: DetectConfig {
@@ -225,6 +228,12 @@ fn config(spec: &ConfigSpec) -> Config {
                         [usize::from(guided % 3)],
                     ..GuidedLoopConfig::DEFAULT
                 },
+            },
+            uncertainty: UncertaintyConfig {
+                end_gain: u[0],
+                min_end_sd_px: u[1],
+                min_end_sd_diameters: u[2],
+                residual_gain: u[3],
             },
             track: TrackConfig {
                 gate_px: t[0],

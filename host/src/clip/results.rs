@@ -32,6 +32,12 @@ pub struct ResultRow {
     /// One sigma of `tz_m`, m, where estimated.
     #[serde(default)]
     pub tz_sd_m: Option<f64>,
+    /// One sigma of `pitch_deg`, deg, where estimated.
+    #[serde(default)]
+    pub pitch_sd_deg: Option<f64>,
+    /// One sigma of `yaw_deg`, deg, where estimated.
+    #[serde(default)]
+    pub yaw_sd_deg: Option<f64>,
     /// Pitch of the mirrored candidate, deg (an imade column).
     #[serde(default)]
     pub pitch_alt_deg: Option<f64>,

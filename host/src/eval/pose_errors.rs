@@ -32,6 +32,11 @@ pub struct FrameErrors {
     pub range_used: bool,
     /// Where the row gives `tz_sd_m`: whether the Tz error is within two of those sigmas.
     pub tz_within_two_sd: Option<bool>,
+    /// Where the row gives `pitch_sd_deg`: whether the pitch error is within two sigmas, not
+    /// counting the choice (of the candidate nearer the truth).
+    pub pitch_within_two_sd: Option<bool>,
+    /// Where the row gives `yaw_sd_deg`: the same for yaw.
+    pub yaw_within_two_sd: Option<bool>,
 }
 
 impl FrameErrors {
@@ -77,6 +82,11 @@ pub struct PoseEvaluation {
     /// Fraction of frames with `tz_sd_m` whose Tz error is within two of its sigmas (honest
     /// sigmas give about 95 %); None where no row has one.
     pub tz_within_two_sd: Option<f64>,
+    /// The same for pitch and `pitch_sd_deg`, not counting the choice (of the candidate nearer
+    /// the truth).
+    pub pitch_within_two_sd: Option<f64>,
+    /// The same for yaw and `yaw_sd_deg`.
+    pub yaw_within_two_sd: Option<f64>,
     /// Per-frame errors.
     pub frames: Vec<FrameErrors>,
 }
@@ -106,16 +116,24 @@ pub fn frame_errors(frame: u64, truth: &GroundTruth, row: &ResultRow) -> Option<
     let err = |estimate: f64, truth: f64| (estimate - truth).abs() / km;
     let angle = |estimate: f64, truth: f64| wrap_deg(estimate - truth).abs() / km;
     let yaw = angle(row.yaw_deg?, truth.yaw_deg);
+    let pitch = angle(row.pitch_deg?, truth.pitch_deg);
     let yaw_alt = row
         .yaw_alt_deg
         .map_or(f64::INFINITY, |a| angle(a, truth.yaw_deg));
+    // The sigmas do not count the choice between the mirror candidates (docs/formats.md): they
+    // are judged on the candidate nearer the truth. Errors here are per km; a sigma is not.
+    let (pitch_judged, yaw_judged) = match row.pitch_alt_deg {
+        Some(pitch_alt) if yaw_alt < yaw => (angle(pitch_alt, truth.pitch_deg), yaw_alt),
+        _ => (pitch, yaw.min(yaw_alt)),
+    };
+    let within = |error_per_km: f64, sd: Option<f64>| sd.map(|sd| error_per_km * km <= 2.0 * sd);
     Some(FrameErrors {
         frame,
         tz_true_m: truth.tz_m,
         tx: err(row.tx_m?, truth.tx_m),
         ty: err(row.ty_m?, truth.ty_m),
         tz: err(row.tz_m?, truth.tz_m),
-        pitch: angle(row.pitch_deg?, truth.pitch_deg),
+        pitch,
         yaw,
         yaw_best: yaw.min(yaw_alt),
         yaw_choice_correct: yaw <= yaw_alt,
@@ -124,6 +142,8 @@ pub fn frame_errors(frame: u64, truth: &GroundTruth, row: &ResultRow) -> Option<
             .tz_sd_m
             .zip(row.tz_m)
             .map(|(sd, tz)| (tz - truth.tz_m).abs() <= 2.0 * sd),
+        pitch_within_two_sd: within(pitch_judged, row.pitch_sd_deg),
+        yaw_within_two_sd: within(yaw_judged, row.yaw_sd_deg),
     })
 }
 
@@ -153,15 +173,20 @@ pub fn evaluate(truth: &[(u64, GroundTruth)], results: &[ResultRow]) -> PoseEval
         })
         .collect();
     let correct = frames.iter().filter(|f| f.yaw_choice_correct).count();
-    let with_sd: Vec<bool> = frames.iter().filter_map(|f| f.tz_within_two_sd).collect();
-    let within = with_sd.iter().filter(|w| **w).count();
+    let share_within = |within: fn(&FrameErrors) -> Option<bool>| {
+        let judged: Vec<bool> = frames.iter().filter_map(within).collect();
+        let inside = judged.iter().filter(|w| **w).count();
+        (!judged.is_empty()).then(|| inside as f64 / judged.len() as f64)
+    };
     PoseEvaluation {
         case,
         frames_with_truth: truth.len(),
         frames_with_pose: frames.len(),
         parameters,
         yaw_choice_correct: (!frames.is_empty()).then(|| correct as f64 / frames.len() as f64),
-        tz_within_two_sd: (!with_sd.is_empty()).then(|| within as f64 / with_sd.len() as f64),
+        tz_within_two_sd: share_within(|f| f.tz_within_two_sd),
+        pitch_within_two_sd: share_within(|f| f.pitch_within_two_sd),
+        yaw_within_two_sd: share_within(|f| f.yaw_within_two_sd),
         frames,
     }
 }
@@ -195,6 +220,8 @@ mod tests {
             range_used: false,
             roll_deg: None,
             tz_sd_m: Some(60.0),
+            pitch_sd_deg: Some(2.9),
+            yaw_sd_deg: None,
             pitch_alt_deg: None,
             image_range_m: None,
         }
@@ -209,8 +236,11 @@ mod tests {
         assert!((e.pitch - 3.0).abs() < 1e-9);
         assert!((e.yaw - 1.0).abs() < 1e-9);
         assert!(e.yaw_choice_correct);
-        // 100 m off with a sigma of 60 m: within two sigmas.
+        // 100 m off with a sigma of 60 m: within two sigmas. Pitch 6 deg off (3 per km) with a
+        // sigma of 2.9 deg: outside, a sigma being compared with the error itself, not per km.
         assert_eq!(e.tz_within_two_sd, Some(true));
+        assert_eq!(e.pitch_within_two_sd, Some(false));
+        assert_eq!(e.yaw_within_two_sd, None);
     }
 
     #[test]

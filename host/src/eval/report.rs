@@ -83,16 +83,34 @@ fn write_pose_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Re
             opt(e.pose.yaw_choice_correct, |f| format!("{:.1}", 100.0 * f))
         )?;
     }
-    write!(s, "\n| Tz within two of its sigmas (tz_sd_m) | % |")?;
-    for e in evaluations {
-        write!(
-            s,
-            " {} | | | |",
-            opt(e.pose.tz_within_two_sd, |f| format!("{:.1}", 100.0 * f))
-        )?;
+    let coverage: [(&str, Share); 3] = [
+        ("Tz within two of its sigmas (tz_sd_m)", |e| {
+            e.pose.tz_within_two_sd
+        }),
+        (
+            "pitch within two of its sigmas (pitch_sd_deg, nearer candidate)",
+            |e| e.pose.pitch_within_two_sd,
+        ),
+        (
+            "yaw within two of its sigmas (yaw_sd_deg, nearer candidate)",
+            |e| e.pose.yaw_within_two_sd,
+        ),
+    ];
+    for (label, share) in coverage {
+        write!(s, "\n| {label} | % |")?;
+        for e in evaluations {
+            write!(
+                s,
+                " {} | | | |",
+                opt(share(e), |f| format!("{:.1}", 100.0 * f))
+            )?;
+        }
     }
     writeln!(s, "\n")
 }
+
+/// A share of an evaluation's frames (None where it has no frame to judge).
+type Share = fn(&Evaluation) -> Option<f64>;
 
 fn write_iou_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Result {
     writeln!(

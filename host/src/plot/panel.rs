@@ -25,6 +25,9 @@ pub struct Series<'a> {
     pub color: RGBColor,
     /// The points.
     pub points: Vec<(f64, f64)>,
+    /// One sigma of each point where it has one (a bar of two sigmas either way is drawn);
+    /// empty, or one entry per point.
+    pub sigmas: Vec<Option<f64>>,
 }
 
 /// The paper's colours: truth blue, estimate orange.
@@ -48,7 +51,8 @@ pub fn span(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     lo - pad..hi + pad
 }
 
-/// Draws a panel titled `title` with y axis `unit` over frame numbers.
+/// Draws a panel titled `title` with y axis `unit` over frame numbers; the y axis spans the
+/// points, and error bars are clipped to it.
 pub fn draw_panel(
     area: &DrawingArea<BitMapBackend, Shift>,
     title: &str,
@@ -58,6 +62,7 @@ pub fn draw_panel(
     let all = || series.iter().flat_map(|s| s.points.iter());
     let x = span(all().map(|p| p.0));
     let y = span(all().map(|p| p.1));
+    let y_range = y.clone();
     let mut chart = ChartBuilder::on(area)
         .caption(title, (FAMILY, 22))
         .margin(10)
@@ -72,6 +77,24 @@ pub fn draw_panel(
         .draw()?;
     for s in series {
         let color = s.color;
+        let bars = s
+            .points
+            .iter()
+            .zip(&s.sigmas)
+            .filter_map(|(&(x, value), sd)| Some((x, value, (*sd)?)))
+            .map(|(x, value, sd)| {
+                // Clipped to the panel, so that one wide bar cannot hide the others.
+                let clip = |v: f64| v.clamp(y_range.start, y_range.end);
+                ErrorBar::new_vertical(
+                    x,
+                    clip(value - 2.0 * sd),
+                    value,
+                    clip(value + 2.0 * sd),
+                    color.mix(0.5).stroke_width(1),
+                    4,
+                )
+            });
+        chart.draw_series(bars)?;
         let drawn = match s.mark {
             Mark::Line => chart.draw_series(LineSeries::new(
                 s.points.iter().copied(),

@@ -1,6 +1,7 @@
 //! Estimated against true pose over the frames, like the paper's Fig. 15 (unknown range) and
 //! Fig. 16 (known range): Tx, Ty, Tz, pitch and yaw (with the mirrored candidate), and the slant
-//! range measured from the image.
+//! range measured from the image. Tz, pitch and yaw carry error bars of two sigmas either way
+//! where the results give their sigmas (`tz_sd_m`, `pitch_sd_deg`, `yaw_sd_deg`).
 
 use super::panel::{ESTIMATE, Mark, SECONDARY, Series, TRUTH, draw_panel};
 use crate::clip::{Clip, FrameRow, GroundTruth, ResultRow};
@@ -30,6 +31,18 @@ pub fn plot(clip: &Clip, rows: &[ResultRow], title: &str, path: &Path) -> anyhow
             .filter_map(|(r, _)| Some((r.frame as f64, f(ok.get(&r.frame)?)?)))
             .collect()
     };
+    // The sigmas of `estimate_of(value)`'s points, in its order.
+    let sigmas_of = |value: fn(&ResultRow) -> Option<f64>,
+                     sd: fn(&ResultRow) -> Option<f64>|
+     -> Vec<Option<f64>> {
+        truth
+            .iter()
+            .filter_map(|(r, _)| {
+                let row = ok.get(&r.frame)?;
+                value(row).map(|_| sd(row))
+            })
+            .collect()
+    };
     let pair = |truth: Vec<(f64, f64)>, estimate: Vec<(f64, f64)>| {
         vec![
             Series {
@@ -37,14 +50,20 @@ pub fn plot(clip: &Clip, rows: &[ResultRow], title: &str, path: &Path) -> anyhow
                 mark: Mark::Line,
                 color: TRUTH,
                 points: truth,
+                sigmas: Vec::new(),
             },
             Series {
                 label: "estimate",
                 mark: Mark::Dots,
                 color: ESTIMATE,
                 points: estimate,
+                sigmas: Vec::new(),
             },
         ]
+    };
+    let with_sigmas = |mut series: Vec<Series<'static>>, sigmas: Vec<Option<f64>>| {
+        series[1].sigmas = sigmas;
+        series
     };
     let with_alt = |mut series: Vec<Series<'static>>, alt: Vec<(f64, f64)>| {
         series.push(Series {
@@ -52,6 +71,7 @@ pub fn plot(clip: &Clip, rows: &[ResultRow], title: &str, path: &Path) -> anyhow
             mark: Mark::Crosses,
             color: SECONDARY,
             points: alt,
+            sigmas: Vec::new(),
         });
         series
     };
@@ -66,6 +86,7 @@ pub fn plot(clip: &Clip, rows: &[ResultRow], title: &str, path: &Path) -> anyhow
             .iter()
             .filter_map(|(r, _)| Some((r.frame as f64, r.range_m?)))
             .collect(),
+        sigmas: Vec::new(),
     });
     let panels: [(&str, &str, Vec<Series>); 6] = [
         (
@@ -81,13 +102,19 @@ pub fn plot(clip: &Clip, rows: &[ResultRow], title: &str, path: &Path) -> anyhow
         (
             "Tz",
             "m",
-            pair(true_of(|t| t.tz_m), estimate_of(|r| r.tz_m)),
+            with_sigmas(
+                pair(true_of(|t| t.tz_m), estimate_of(|r| r.tz_m)),
+                sigmas_of(|r| r.tz_m, |r| r.tz_sd_m),
+            ),
         ),
         (
             "pitch",
             "deg",
             with_alt(
-                pair(true_of(|t| t.pitch_deg), estimate_of(|r| r.pitch_deg)),
+                with_sigmas(
+                    pair(true_of(|t| t.pitch_deg), estimate_of(|r| r.pitch_deg)),
+                    sigmas_of(|r| r.pitch_deg, |r| r.pitch_sd_deg),
+                ),
                 estimate_of(|r| r.pitch_alt_deg),
             ),
         ),
@@ -95,7 +122,10 @@ pub fn plot(clip: &Clip, rows: &[ResultRow], title: &str, path: &Path) -> anyhow
             "yaw",
             "deg",
             with_alt(
-                pair(true_of(|t| t.yaw_deg), estimate_of(|r| r.yaw_deg)),
+                with_sigmas(
+                    pair(true_of(|t| t.yaw_deg), estimate_of(|r| r.yaw_deg)),
+                    sigmas_of(|r| r.yaw_deg, |r| r.yaw_sd_deg),
+                ),
                 estimate_of(|r| r.yaw_alt_deg),
             ),
         ),

@@ -1,0 +1,237 @@
+//! The pose's one-sigma uncertainties: how precisely the image places the body's ends, carried
+//! through the closed form to pitch and yaw.
+//!
+//! Pitch and yaw come from the projected nose-tail vector. Its direction in the image (the
+//! in-plane angle, a turn about the line of sight) is known to `sqrt 2` end sigmas over the
+//! apparent length, an end being as uncertain across the axis as along it; its length,
+//! against the model's length at the slant range, gives the aspect (the angle between the axis
+//! and the line of sight), `sin(aspect) = L_image R / (f L)`. A fractional error `e` of the
+//! apparent length moves the aspect as a fractional error `e` of the range does, so both are
+//! carried through together by solving the pose again at `R (1 ± e)`, which also holds near a
+//! broadside view where the aspect's sensitivity has no linear form. The sigmas are those of the
+//! chosen candidate, not counting the choice between the mirror candidates (the results format's
+//! definition): `yaw_resolved` says how sure that choice is.
+//!
+//! An end is an edge blurred by the optics (`sigma_b` px) of contrast `C` over sky noise
+//! `sigma_n`, crossed by about a diameter (`d` px) of rows: the Cramer-Rao bound of an edge's
+//! place is `sigma_n / C sqrt(2 sqrt(pi) sigma_b / d)` px. Ends are less clean than that bound
+//! (the nose tapers to a point, shading and a plume glow over the base), hence a gain over it and
+//! a floor.
+
+use crate::closed_form::Attitude;
+use crate::extremes::Silhouette;
+use crate::pose::{attitude_of, nose_direction, wrap_deg};
+use nalgebra::{UnitQuaternion, Vector3};
+
+/// The uncertainty's tunables.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct UncertaintyConfig {
+    /// An end's sigma over the Cramer-Rao bound of a straight edge of the body's diameter.
+    pub end_gain: f32,
+    /// The least sigma of an end, px ...
+    pub min_end_sd_px: f32,
+    /// ... and in body diameters: the shading of the nose and the base, and a plume's glow over
+    /// the base, which the silhouette does not model, reach a fraction of the diameter.
+    pub min_end_sd_diameters: f32,
+    /// An end's sigma along the axis per px of the table match's rms width residual: a frame
+    /// whose silhouette the model fits badly has its ends badly placed too.
+    pub residual_gain: f32,
+}
+
+impl UncertaintyConfig {
+    /// The defaults.
+    pub const DEFAULT: UncertaintyConfig = UncertaintyConfig {
+        end_gain: 3.0,
+        min_end_sd_px: 0.1,
+        min_end_sd_diameters: 0.08,
+        residual_gain: 1.5,
+    };
+}
+
+impl Default for UncertaintyConfig {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// One sigma of the place of an end of the silhouette, px, along the axis and across it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct EndSd {
+    /// Along the axis (the apparent length's share), px.
+    pub along_px: f32,
+    /// Across the axis (the in-plane angle's share), px: the edge's bound and the floor in px;
+    /// the axis is fitted along the whole body, so the diameter's share does not apply.
+    pub across_px: f32,
+}
+
+/// One sigma of an end of `silhouette` on a sky of noise `noise_sigma` (grey levels), where the
+/// table match left an rms width residual of `residual_px` (px, where it ran); the floor where
+/// the inputs give no finite figure.
+pub fn end_sd(
+    silhouette: &Silhouette,
+    noise_sigma: f32,
+    residual_px: Option<f32>,
+    config: &UncertaintyConfig,
+) -> EndSd {
+    let bound = noise_sigma / silhouette.contrast
+        * libm::sqrtf(
+            2.0 * libm::sqrtf(core::f32::consts::PI) * silhouette.sigma_px / silhouette.diameter_px,
+        );
+    let edge = config.end_gain * bound;
+    let floor = config.min_end_sd_px;
+    let unmodelled = config.min_end_sd_diameters * silhouette.diameter_px;
+    let misfit = config.residual_gain * residual_px.unwrap_or(0.0);
+    let across = libm::sqrtf(edge * edge + floor * floor);
+    let along = libm::sqrtf(across * across + unmodelled * unmodelled + misfit * misfit);
+    if along.is_finite() {
+        EndSd {
+            along_px: along,
+            across_px: across,
+        }
+    } else {
+        EndSd {
+            along_px: floor,
+            across_px: floor,
+        }
+    }
+}
+
+/// Variances of pitch and yaw, deg², summed term by term.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct AngleVariance {
+    pitch: f32,
+    yaw: f32,
+}
+
+impl AngleVariance {
+    /// Adds the square of half the gap between two attitudes (solved at either end of an
+    /// interval of one sigma each way).
+    pub fn add_half_gap(&mut self, a: &Attitude, b: &Attitude) {
+        let pitch = 0.5 * (a.pitch_deg - b.pitch_deg);
+        let yaw = 0.5 * wrap_deg(a.yaw_deg - b.yaw_deg);
+        self.pitch += pitch * pitch;
+        self.yaw += yaw * yaw;
+    }
+
+    /// Adds the in-plane angle's sigma `sd_rad`: the attitude turned that far either way about
+    /// the line of sight `los` (camera frame C, any length).
+    pub fn add_in_plane(&mut self, attitude: &Attitude, los: Vector3<f32>, sd_rad: f32) {
+        let nose = nose_direction(attitude.pitch_deg, attitude.yaw_deg);
+        let turned = |angle: f32| {
+            let (pitch_deg, yaw_deg) =
+                attitude_of(&(UnitQuaternion::from_scaled_axis(los.normalize() * angle) * nose));
+            Attitude { pitch_deg, yaw_deg }
+        };
+        if los.norm() > 0.0 && sd_rad.is_finite() {
+            self.add_half_gap(&turned(sd_rad), &turned(-sd_rad));
+        }
+    }
+
+    /// One sigma of pitch and yaw, deg.
+    pub fn sd_deg(&self) -> (f32, f32) {
+        (libm::sqrtf(self.pitch), libm::sqrtf(self.yaw))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::extremes::Axis;
+    use crate::point::ImagePoint;
+
+    fn silhouette(contrast: f32, sigma_px: f32, diameter_px: f32) -> Silhouette {
+        Silhouette {
+            axis: Axis {
+                centre: ImagePoint::new(64.0, 64.0),
+                dir: ImagePoint::new(1.0, 0.0),
+            },
+            nose_t: 40.0,
+            nose_ramp_offset_m: 0.0,
+            tail_t: -40.0,
+            diameter_px,
+            contrast,
+            sigma_px,
+            nose_evidence: 0.0,
+            plume_at_tail: false,
+        }
+    }
+
+    /// The bound by hand: noise 2, contrast 40, blur 1 px, diameter 8 px:
+    /// 0.05 sqrt(2 sqrt(pi) / 8) = 0.033284 px; times a gain of 3, with a floor of 0.1 px in
+    /// quadrature across the axis, and along it also 0.05 diameters (0.4 px) and, at a gain of
+    /// 1, the match's residual of 0.3 px.
+    #[test]
+    fn an_end_sigma_is_the_edge_bound_with_gain_and_floors() {
+        let config = UncertaintyConfig {
+            end_gain: 3.0,
+            min_end_sd_px: 0.1,
+            min_end_sd_diameters: 0.05,
+            residual_gain: 1.0,
+        };
+        let sd = end_sd(&silhouette(40.0, 1.0, 8.0), 2.0, Some(0.3), &config);
+        let across = libm::sqrtf(0.099852 * 0.099852 + 0.01);
+        assert!((sd.across_px - across).abs() < 1e-4, "{sd:?} vs {across}");
+        let along = libm::sqrtf(across * across + 0.16 + 0.09);
+        assert!((sd.along_px - along).abs() < 1e-4, "{sd:?} vs {along}");
+        // A fainter body places its ends worse, in proportion to noise over contrast.
+        let faint = end_sd(&silhouette(4.0, 1.0, 8.0), 2.0, None, &config);
+        let across = libm::sqrtf(0.99852 * 0.99852 + 0.01);
+        assert!((faint.across_px - across).abs() < 1e-3, "{faint:?}");
+        // Absurd inputs give the floor.
+        let absurd = end_sd(&silhouette(0.0, 1.0, 8.0), 2.0, None, &config);
+        assert_eq!((absurd.along_px, absurd.across_px), (0.1, 0.1));
+    }
+
+    /// Half gaps add in quadrature; yaw across the wrap counts the short way.
+    #[test]
+    fn half_gaps_add_in_quadrature() {
+        let mut v = AngleVariance::default();
+        let a = Attitude {
+            pitch_deg: 10.0,
+            yaw_deg: 179.0,
+        };
+        let b = Attitude {
+            pitch_deg: 4.0,
+            yaw_deg: -177.0,
+        };
+        v.add_half_gap(&a, &b);
+        v.add_half_gap(&a, &b);
+        let (pitch, yaw) = v.sd_deg();
+        assert!((pitch - libm::sqrtf(18.0)).abs() < 1e-5, "{pitch}");
+        assert!((yaw - libm::sqrtf(8.0)).abs() < 1e-4, "{yaw}");
+    }
+
+    /// A turn about the line of sight, worked by hand. Looking along +Z with the nose along +X
+    /// (pitch 0, yaw 90), a turn of 0.01 rad moves the nose in the image plane: pitch by
+    /// 0.573 deg, yaw not at all (first order). With the nose along the line of sight (yaw 0)
+    /// the same turn changes nothing.
+    #[test]
+    fn an_in_plane_turn_moves_what_the_image_plane_holds() {
+        let los = Vector3::new(0.0, 0.0, 1000.0);
+        let mut across = AngleVariance::default();
+        across.add_in_plane(
+            &Attitude {
+                pitch_deg: 0.0,
+                yaw_deg: 90.0,
+            },
+            los,
+            0.01,
+        );
+        let (pitch, yaw) = across.sd_deg();
+        assert!((pitch - 0.5730).abs() < 1e-3, "{pitch}");
+        assert!(yaw < 1e-3, "{yaw}");
+        let mut along = AngleVariance::default();
+        along.add_in_plane(
+            &Attitude {
+                pitch_deg: 0.0,
+                yaw_deg: 0.0,
+            },
+            los,
+            0.01,
+        );
+        let (pitch, yaw) = along.sd_deg();
+        assert!(pitch < 1e-3 && yaw < 1e-3, "{pitch} {yaw}");
+    }
+}
