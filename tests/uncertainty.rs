@@ -31,8 +31,9 @@ fn angle_coverage(clip: &str, range: RangeArg, smooth: bool) -> (f64, f64) {
     )
 }
 
-/// The Table 1 test clip (175 frames) and the small clip of its scene (20 frames, where one
-/// frame is 5 %), with and without the range sensor, causal and smoothed.
+/// The Table 1 test clip (175 frames), the small clip of its scene and the small clip flying
+/// towards the camera (20 frames each, where one frame is 5 %), with and without the range
+/// sensor, causal and smoothed.
 #[test]
 fn pitch_and_yaw_sigmas_are_honest_on_clean_clips() {
     for (clip, range, smooth, max_share) in [
@@ -41,6 +42,8 @@ fn pitch_and_yaw_sigmas_are_honest_on_clean_clips() {
         ("table1-test", RangeArg::Ignore, true, 0.99),
         ("small-known-range", RangeArg::Auto, false, 1.0),
         ("small-known-range", RangeArg::Ignore, true, 1.0),
+        ("small-towards-camera", RangeArg::Ignore, false, 1.0),
+        ("small-towards-camera", RangeArg::Auto, true, 1.0),
     ] {
         let (pitch, yaw) = angle_coverage(clip, range, smooth);
         eprintln!(

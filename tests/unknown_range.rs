@@ -62,9 +62,10 @@ fn the_sigma_grows_with_a_thinning_body() {
 }
 
 /// A recorded clip smoothed forwards and backwards (`imade run --smooth`): the depth closer than
-/// the causal filter's (figures of the causal run in the comments), and the yaw side decided
-/// from the smoothed range rate, with or without the range sensor, right in at least 95 % of
-/// the frames (the causal choice: 89 % on table1-test, 70 % on small-known-range).
+/// the causal filter's (causal: 3.81, 1.63 and 24.9 m/km), and the yaw side decided from the
+/// smoothed range rate, with or without the range sensor, right in at least 95 % of the frames
+/// (causal: 93 % on table1-test, 80 % on small-known-range and small-towards-camera without the
+/// range). The towards-the-camera clip's body is 4-6 px wide at 3.0-2.1 km.
 #[test]
 fn smoothing_a_recorded_clip_gives_the_depth_and_the_side() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
@@ -72,6 +73,8 @@ fn smoothing_a_recorded_clip_gives_the_depth_and_the_side() {
         ("table1-test", RangeArg::Ignore, Some(3.0)),
         ("small-known-range", RangeArg::Ignore, Some(1.0)),
         ("small-known-range", RangeArg::Auto, None),
+        ("small-towards-camera", RangeArg::Ignore, Some(10.0)),
+        ("small-towards-camera", RangeArg::Auto, None),
     ] {
         let evaluation = imade_tests::evaluate_run(imade_host::run::RunArgs {
             clips: vec![root.join("fixtures").join(clip)],
@@ -94,7 +97,7 @@ fn smoothing_a_recorded_clip_gives_the_depth_and_the_side() {
         assert_eq!(pose.frames_with_pose, pose.frames_with_truth, "{clip}");
         assert!(side >= 0.95, "{clip}: side right in {side} of frames");
         if let Some(max_tz) = max_tz {
-            assert!(tz <= max_tz, "{clip}: Tz {tz} m/km (causal: 3.81, 1.63)");
+            assert!(tz <= max_tz, "{clip}: Tz {tz} m/km");
             let within = pose.tz_within_two_sd.expect("tz_sd_m in every ok row");
             assert!(within >= 0.8, "{clip}: {within} within two sigmas");
         }

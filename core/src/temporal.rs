@@ -277,7 +277,7 @@ impl Temporal {
         Some(Estimate {
             range_m,
             range_sd_m,
-            choice: self.choose_yaw(config),
+            choice: self.choose_yaw(t, config),
         })
     }
 
@@ -400,10 +400,12 @@ impl Temporal {
     /// Chooses between the mirror candidates from the range trend of the shortest recent stretch
     /// of the window (at least `config.min_trend_frames` frames) whose slope is significant: the
     /// least delayed evidence, so that a range that turns (a projectile passing its closest
-    /// point) changes the choice within a few frames instead of half a window. Keeps the last
-    /// resolved choice (or "away", for a projectile flying off from the launcher) while no
-    /// stretch is significant.
-    fn choose_yaw(&mut self, config: &TemporalConfig) -> YawChoice {
+    /// point) changes the choice within a few frames instead of half a window. While no stretch
+    /// is significant, the motion model's range rate at the frame of time `t` chooses (the
+    /// likelier side, resolved where the rate is significant: [`YawChoice::of_rate`]); without
+    /// it, the last resolved choice stands (or "away", for a projectile flying off from the
+    /// launcher).
+    fn choose_yaw(&mut self, t: f32, config: &TemporalConfig) -> YawChoice {
         let shortest = config.min_trend_frames.max(3);
         let decided = (shortest..=self.window.len())
             .filter_map(|frames| self.recent_trend(frames))
@@ -417,10 +419,21 @@ impl Temporal {
                     resolved: true,
                 }
             }
-            None => YawChoice {
-                away: self.last_away.unwrap_or(true),
-                resolved: false,
-            },
+            None => {
+                let fallback = self.last_away.unwrap_or(true);
+                let Some(step) = self.range_step(t) else {
+                    return YawChoice {
+                        away: fallback,
+                        resolved: false,
+                    };
+                };
+                let (rate, rate_sd) = step.rate();
+                let choice = YawChoice::of_rate(rate, rate_sd, config.trend_sigma, fallback);
+                if choice.resolved {
+                    self.last_away = Some(choice.away);
+                }
+                choice
+            }
         }
     }
 }
@@ -463,14 +476,14 @@ mod tests {
         let config = TemporalConfig::DEFAULT;
         for (rate, away) in [(90.0f32, true), (-90.0, false)] {
             let mut state = Temporal::new();
-            let mut choice = state.choose_yaw(&config);
+            let mut choice = state.choose_yaw(0.0, &config);
             assert!(!choice.resolved);
             for k in 0..12 {
                 let t = state.frame_time(100.0 + k as f64 / 30.0, &config);
                 // +-2 m of alternating noise on a linear trend.
                 let noise = if k % 2 == 0 { 2.0 } else { -2.0 };
                 state.push_range(t, 1500.0 + rate * t + noise, &config);
-                choice = state.choose_yaw(&config);
+                choice = state.choose_yaw(t, &config);
             }
             assert!(choice.resolved, "rate {rate}");
             assert_eq!(choice.away, away);
@@ -493,7 +506,7 @@ mod tests {
             let t = state.frame_time(f64::from(k as f32 * dt), &config);
             let noise = if k % 2 == 0 { 0.01 } else { -0.01 };
             state.push_range(t, 1000.0 + c * (t - t0) * (t - t0) + noise, &config);
-            let choice = state.choose_yaw(&config);
+            let choice = state.choose_yaw(t, &config);
             if k >= 4 && t <= t0 - 3.0 * dt {
                 assert!(choice.resolved && !choice.away, "frame {k}: {choice:?}");
             }
@@ -507,12 +520,13 @@ mod tests {
     fn a_flat_noisy_range_stays_unresolved() {
         let config = TemporalConfig::DEFAULT;
         let mut state = Temporal::new();
+        let mut t = 0.0;
         for k in 0..15 {
-            let t = state.frame_time(k as f64 / 30.0, &config);
+            t = state.frame_time(k as f64 / 30.0, &config);
             let noise = [3.0, -1.0, 4.0, -4.0, 0.5][k % 5];
             state.push_range(t, 1500.0 + noise, &config);
         }
-        assert!(!state.choose_yaw(&config).resolved);
+        assert!(!state.choose_yaw(t, &config).resolved);
     }
 
     #[test]

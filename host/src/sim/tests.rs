@@ -257,6 +257,7 @@ fn small_fixtures_are_reproduced_byte_for_byte() {
         "small-sixfin-1000x70",
         "small-clutter-plume",
         "small-clutter-terrain",
+        "small-towards-camera",
     ] {
         let scenario_file = fixtures.join("scenarios").join(format!("{name}.toml"));
         let dir = tempfile::tempdir().unwrap();
