@@ -19,7 +19,7 @@ use crate::camera::{Camera, line_of_sight_frame};
 use crate::extremes::Silhouette;
 use crate::model::ProjectileModel;
 use crate::point::ImagePoint;
-use crate::pose::{DEG, attitude_of};
+use crate::pose::{DEG, attitude_of, nose_direction};
 use nalgebra::{Vector2, Vector3};
 
 /// Where the width of a foreshortened disc falls to half, in radii from its centre.
@@ -49,6 +49,30 @@ pub struct ClosedForm {
     pub candidates: [Attitude; 2],
     /// Angle between the body axis and the line of sight, deg, in [0, 90].
     pub aspect_deg: f32,
+}
+
+impl Attitude {
+    /// The mean of two attitudes: of their unit nose directions.
+    pub fn mean(&self, other: &Attitude) -> Attitude {
+        let nose = nose_direction(self.pitch_deg, self.yaw_deg)
+            + nose_direction(other.pitch_deg, other.yaw_deg);
+        let (pitch_deg, yaw_deg) = attitude_of(&nose);
+        Attitude { pitch_deg, yaw_deg }
+    }
+}
+
+impl ClosedForm {
+    /// The mean of two solutions of one frame at one range, candidate by candidate, and of the
+    /// aspects; the translation stays this one's.
+    pub fn mean(&self, other: &ClosedForm) -> ClosedForm {
+        let [a, b] = self.candidates;
+        let [c, d] = other.candidates;
+        ClosedForm {
+            translation: self.translation,
+            candidates: [a.mean(&c), b.mean(&d)],
+            aspect_deg: 0.5 * (self.aspect_deg + other.aspect_deg),
+        }
+    }
 }
 
 /// The closed-form stage's result: the pose hypothesis that the table match starts from, and the
@@ -200,5 +224,29 @@ pub fn from_ends(
         translation: [t.x, t.y, t.z],
         candidates: [candidate(1.0), candidate(-1.0)],
         aspect_deg: libm::asinf(sin_a) * DEG,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn attitude(pitch_deg: f32, yaw_deg: f32) -> Attitude {
+        Attitude { pitch_deg, yaw_deg }
+    }
+
+    /// Means by hand: of yaws +-10 deg at zero pitch, yaw 0; of pitches 10 and 20 deg at one
+    /// yaw, 15 deg (the unit vectors' bisector); of yaws 179 and -179 deg, 180 (across the wrap).
+    #[test]
+    fn the_mean_attitude_bisects_the_nose_directions() {
+        let m = attitude(0.0, 10.0).mean(&attitude(0.0, -10.0));
+        assert!(m.pitch_deg.abs() < 1e-4 && m.yaw_deg.abs() < 1e-4, "{m:?}");
+        let m = attitude(10.0, 30.0).mean(&attitude(20.0, 30.0));
+        assert!((m.pitch_deg - 15.0).abs() < 1e-4 && (m.yaw_deg - 30.0).abs() < 1e-4);
+        let m = attitude(0.0, 179.0).mean(&attitude(0.0, -179.0));
+        assert!(
+            (crate::pose::wrap_deg(m.yaw_deg - 180.0)).abs() < 1e-3,
+            "{m:?}"
+        );
     }
 }

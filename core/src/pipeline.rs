@@ -352,7 +352,10 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         let sil = &measured.hypothesis.silhouette;
         // The apparent length's fractional sigma moves the aspect as the range's does.
         let length_px = libm::fabsf(sil.nose_t - sil.tail_t);
-        let length_fraction = core::f32::consts::SQRT_2 * end_sd.along_px / length_px;
+        // Two ends; an average of independent lengths is known the better.
+        let lengths = f32::from(measured.lengths_averaged());
+        let length_fraction =
+            core::f32::consts::SQRT_2 * end_sd.along_px / length_px / libm::sqrtf(lengths);
         let range_fraction = estimate.range_sd_m.map_or(0.0, |sd| sd / estimate.range_m);
         let fraction =
             libm::sqrtf(length_fraction * length_fraction + range_fraction * range_fraction)
