@@ -52,7 +52,8 @@ pub struct Solved {
     pub track: TrackUse,
     /// One sigma of the silhouette's ends ([`uncertainty::end_sd`]).
     pub end_sd: EndSd,
-    /// The range filter's step at this frame, where the motion model gave the range.
+    /// The range filter's step at this frame, where the filter took its range (the sensor's or
+    /// the image's).
     pub range_step: Option<FilterStep>,
 }
 
@@ -365,11 +366,14 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             &chosen_at(estimate.range_m * (1.0 + fraction)).1,
             &chosen_at(estimate.range_m * (1.0 - fraction)).1,
         );
-        let [x, y, z] = solution.translation;
-        let in_plane_rad = core::f32::consts::SQRT_2 * end_sd.across_px / length_px;
-        variance.add_in_plane(&chosen, nalgebra::Vector3::new(x, y, z), in_plane_rad);
-        let (pitch_sd_deg, yaw_sd_deg) = variance.sd_deg();
         let [tx_m, ty_m, tz_m] = solution.translation;
+        let in_plane_rad = core::f32::consts::SQRT_2 * end_sd.across_px / length_px;
+        variance.add_in_plane(
+            &chosen,
+            nalgebra::Vector3::new(tx_m, ty_m, tz_m),
+            in_plane_rad,
+        );
+        let (pitch_sd_deg, yaw_sd_deg) = variance.sd_deg();
         FrameResult {
             status: Status::Ok,
             capacity: None,

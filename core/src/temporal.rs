@@ -10,7 +10,10 @@
 //! first carried to the current time along the window's robust trend. The trend is the
 //! Theil-Sen slope of the measured slant range against time; it resolves the yaw choice when it
 //! differs from zero by `trend_sigma` standard errors: a growing range means the nose points away
-//! (nose-first flight), a shrinking one that it points towards the camera.
+//! (nose-first flight), a shrinking one that it points towards the camera. While no stretch of the
+//! window is significant, the filter's range rate chooses (a range sensor's readings go through
+//! the filter too). A recorded clip's filter steps can be smoothed afterwards
+//! ([`crate::range_filter::smooth`]).
 
 use crate::capacity::MAX_WINDOW;
 use crate::point::ImagePoint;
