@@ -1,7 +1,14 @@
 //! The exhaust plume: a flickering train of glowing Gaussian puffs behind the base, along -x_B
 //! (attached at the tail: the first puff sits within a tenth of the plume's length of the base).
-//! It adds light, or with a dark polarity absorbs it like smoke (never part of the mask), partly
-//! over the tail: the body hides a puff only where its surface is nearer than the puff's front.
+//! It adds light, or with a dark polarity absorbs it like smoke (never part of the mask).
+//!
+//! By default each puff is a whole 3-D Gaussian, so its glow reaches ahead of the base plane,
+//! partly over the tail (a halo): the body hides a puff only where its surface is nearer than the
+//! puff's front. With `glow_ahead_of_base = false` the gas glows only behind the base plane: along
+//! each camera ray an isotropic Gaussian puff is a 1-D Gaussian in the distance `s` (centred at
+//! the ray's closest approach to the puff, of the puff's sigma), so the light the ray collects
+//! over the stretch behind the base plane and in front of the body's surface is the whole line
+//! integral times a difference of two normal integrals (erf).
 
 use super::camera::Intrinsics;
 use super::math::Vec3;
@@ -25,6 +32,8 @@ pub struct Puff {
     pub peak: f64,
     /// Whether the puff is dark smoke that absorbs rather than glowing exhaust.
     pub dark: bool,
+    /// The base plane, x_B m: where the gas glows only behind it, None for a whole Gaussian.
+    pub base_x: Option<f64>,
 }
 
 /// The puffs of one frame (empty without a plume); `rng` is that frame's plume stream.
@@ -51,6 +60,7 @@ pub fn puffs(cfg: &PlumeConfig, model: &ProjectileModel, rng: &mut Random) -> Ve
                 sigma,
                 peak: cfg.brightness * flicker * libm::exp(-2.5 * f) * rng.between(0.7, 1.3),
                 dark: cfg.polarity == Polarity::Dark,
+                base_x: (!cfg.glow_ahead_of_base).then_some(model.tail_x),
             }
         })
         .collect()
@@ -82,18 +92,27 @@ pub fn add_plume(
         let wx: Vec<f64> = xs.clone().map(|x| pixel_weight(x as f64 - u, sx)).collect();
         let norm = puff.peak * transmission * 2.0 * std::f64::consts::PI * sx * sy;
         let depth_norm = puff.peak * 2.0 * std::f64::consts::PI * sx * sy;
+        // Where the gas glows only behind the base plane: the axis and the plane's offset in C.
+        let plane = puff.base_x.map(|base_x| {
+            let axis = body.rotation.col(0);
+            (axis, base_x + axis.dot(body.translation))
+        });
         for y in ys {
             let wy = pixel_weight(y as f64 - v, sy);
             for (x, w) in xs.clone().zip(&wx) {
-                let visible = match samples.window_pixel(x, y) {
-                    Some((px, py)) => {
-                        let hidden = samples
-                            .pixel_samples(px, py)
-                            .filter(|(_, z)| *z < front)
-                            .count();
+                let depths = samples
+                    .window_pixel(x, y)
+                    .map(|(px, py)| samples.pixel_samples(px, py).map(|(_, z)| z));
+                let visible = match (plane, depths) {
+                    (Some((axis, offset)), depths) => {
+                        let ray = k.ray(x as f64, y as f64);
+                        behind_base_fraction(c, puff.sigma, ray, axis, offset, depths)
+                    }
+                    (None, Some(depths)) => {
+                        let hidden = depths.filter(|z| *z < front).count();
                         1.0 - hidden as f64 / samples.samples_per_pixel() as f64
                     }
-                    None => 1.0,
+                    (None, None) => 1.0,
                 };
                 let index = (y - y0) as usize * width + (x - x0) as usize;
                 if puff.dark {
@@ -105,6 +124,57 @@ pub fn add_plume(
                 }
             }
         }
+    }
+}
+
+/// The share of a puff's light (centre `c` in C, m; Gaussian `sigma`, m) that the camera ray
+/// `ray` (z = 1) collects behind the base plane `axis . p <= offset` (C) and in front of the
+/// body, averaged over the pixel's samples of camera depth `depths` (infinite where a sample
+/// misses the body; None outside the rasterized window: no body).
+fn behind_base_fraction(
+    c: Vec3,
+    sigma: f64,
+    ray: Vec3,
+    axis: Vec3,
+    offset: f64,
+    depths: Option<impl Iterator<Item = f64>>,
+) -> f64 {
+    let length = ray.norm();
+    let d = ray * (1.0 / length);
+    // The unit normal integral up to distance s along the ray.
+    let centre = c.dot(d);
+    let below = |s: f64| 0.5 * (1.0 + libm::erf((s - centre) / (std::f64::consts::SQRT_2 * sigma)));
+    // The gas side of the plane along the ray: s (axis . d) <= offset.
+    let slope = axis.dot(d);
+    let (gas_from, gas_to) = if slope > 0.0 {
+        (f64::NEG_INFINITY, offset / slope)
+    } else if slope < 0.0 {
+        (offset / slope, f64::INFINITY)
+    } else if offset >= 0.0 {
+        (f64::NEG_INFINITY, f64::INFINITY)
+    } else {
+        return 0.0;
+    };
+    let share = |body: f64| {
+        let to = gas_to.min(body);
+        if to > gas_from {
+            below(to) - below(gas_from)
+        } else {
+            0.0
+        }
+    };
+    match depths {
+        Some(depths) => {
+            let (sum, count) = depths.fold((0.0, 0usize), |(sum, count), z| {
+                (sum + share(z * length), count + 1)
+            });
+            if count > 0 {
+                sum / count as f64
+            } else {
+                share(f64::INFINITY)
+            }
+        }
+        None => share(f64::INFINITY),
     }
 }
 
@@ -134,6 +204,30 @@ mod tests {
             ..cfg
         };
         assert!(puffs(&off, &model, &mut Random::new(1, Purpose::Plume, 10)).is_empty());
+    }
+
+    /// The base-plane cut by hand, the camera looking along +Z at a puff 1 km away whose sigma
+    /// is 0.1 m. Side-on (the axis along +X, the base plane at x = 0, gas at x <= 0): a ray ahead
+    /// of the plane collects nothing, one behind it all the puff's light, one that meets the body
+    /// 0.1 m in front of the puff's centre Phi(-1) of it. End-on (the axis along +Z, the base
+    /// facing the camera at z = 1000 m, the puff 0.2 m in front of it): the ray that meets the
+    /// base collects Phi(2) of it, the glow in front of the base.
+    #[test]
+    fn the_gas_glows_only_behind_the_base_plane() {
+        let x = Vec3::new(1.0, 0.0, 0.0);
+        let c = Vec3::new(-0.2, 0.0, 1000.0);
+        let ray = |u: f64| Vec3::new(u / 1000.0, 0.0, 1.0);
+        let none: Option<std::iter::Empty<f64>> = None;
+        assert!(behind_base_fraction(c, 0.1, ray(0.05), x, 0.0, none.clone()) < 1e-12);
+        let behind = behind_base_fraction(c, 0.1, ray(-0.3), x, 0.0, none.clone());
+        assert!((behind - 1.0).abs() < 1e-9, "{behind}");
+        let hidden = behind_base_fraction(c, 0.1, ray(-0.3), x, 0.0, Some([999.9].into_iter()));
+        assert!((hidden - 0.158_655).abs() < 1e-3, "{hidden}");
+        let z = Vec3::new(0.0, 0.0, 1.0);
+        let front = Vec3::new(0.0, 0.0, 999.8);
+        let end_on =
+            behind_base_fraction(front, 0.1, ray(0.0), z, 1000.0, Some([1000.0].into_iter()));
+        assert!((end_on - 0.977_25).abs() < 1e-3, "{end_on}");
     }
 
     #[test]

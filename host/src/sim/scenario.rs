@@ -339,6 +339,18 @@ pub struct PlumeConfig {
     /// passes).
     #[serde(skip_serializing_if = "Polarity::is_bright")]
     pub polarity: Polarity,
+    /// true: each puff is a whole 3-D Gaussian, so its glow reaches ahead of the base plane over
+    /// the tail, like a halo of scattered light. false: the gas glows only behind the base
+    /// plane: a camera ray collects a puff's light only on its stretch behind the base plane and
+    /// in front of the body's surface (a base facing the camera gets the glow in front of it,
+    /// a body side-on none).
+    #[serde(skip_serializing_if = "is_true")]
+    pub glow_ahead_of_base: bool,
+}
+
+/// For `skip_serializing_if`: a default-true flag left out of a written scenario.
+fn is_true(flag: &bool) -> bool {
+    *flag
 }
 
 impl Default for PlumeConfig {
@@ -350,6 +362,7 @@ impl Default for PlumeConfig {
             width_calibers: 0.35,
             flicker: 0.3,
             polarity: Polarity::Bright,
+            glow_ahead_of_base: true,
         }
     }
 }
