@@ -52,9 +52,6 @@ pub struct Solved {
     pub track: TrackUse,
     /// One sigma of the silhouette's ends ([`uncertainty::end_sd`]).
     pub end_sd: EndSd,
-    /// The range filter's step at this frame, where the filter took its range (the sensor's or
-    /// the image's).
-    pub range_step: Option<FilterStep>,
 }
 
 /// The pipeline with its stages: `MAX_RUNS` and `MAX_LABELS` size the detection's labeler,
@@ -74,6 +71,7 @@ pub struct Pipeline<
     temporal: Temporal,
     track: Track,
     solved: Option<Solved>,
+    range_step: Option<FilterStep>,
 }
 
 impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
@@ -90,6 +88,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             temporal: Temporal::new(),
             track: Track::new(),
             solved: None,
+            range_step: None,
         }
     }
 
@@ -147,6 +146,13 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         self.solved.as_ref()
     }
 
+    /// The range filter's step at the last frame, where the filter took a range there (the
+    /// sensor's or the image's), with a pose or without: the steps of a recorded clip, in order,
+    /// are what [`crate::range_filter::smooth`] smooths.
+    pub fn last_range_step(&self) -> Option<FilterStep> {
+        self.range_step
+    }
+
     /// The ok result of a frame `solved` earlier, solved again at another temporal `estimate`
     /// (a smoothed range and yaw choice); an `Unmeasurable` one where that pose breaks the
     /// result's contract.
@@ -170,6 +176,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
     pub fn process(&mut self, input: &FrameInput) -> FrameResult {
         self.table_match.clear();
         self.solved = None;
+        self.range_step = None;
         let input = match self.check(input) {
             Ok(input) => input,
             Err(e) => return FrameResult::from_error(e),
@@ -191,6 +198,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             observation,
             &self.config.temporal,
         );
+        self.range_step = self.temporal.range_step(prediction.t);
         let (target, measurement, estimate) = match (measured, estimate) {
             (Ok((target, m)), Some(estimate)) => (target, m, estimate),
             (Err(e), _) => return FrameResult::from_error(e),
@@ -215,7 +223,6 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             estimate,
             track: target.track,
             end_sd,
-            range_step: self.temporal.range_step(prediction.t),
         });
         result
     }

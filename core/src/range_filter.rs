@@ -128,9 +128,9 @@ struct Track {
 pub struct FilterStep {
     /// The estimate after the frame's measurement (smoothed in place by [`smooth`]).
     estimate: Track,
-    /// The prediction from the previous frame's estimate, and that frame's time (s); None for
-    /// the first frame of a track.
-    prediction: Option<(f32, Track)>,
+    /// The prediction from the previous frame's estimate, and that estimate's time (s) and
+    /// state, which tell [`smooth`] whose prediction it is; None for the first frame of a track.
+    prediction: Option<(f32, State, Track)>,
     /// The image range's systematic error at the frame's scale, a fraction of the range.
     systematic_fraction: f32,
 }
@@ -176,8 +176,9 @@ impl RangeFilter {
         self.last
     }
 
-    /// Takes the image range `measured_m` at time `t` (s, after the last frame's), read at
-    /// `scale`, whose noise the window puts at `noise_sd_m` (one sigma, m; None while unknown),
+    /// Takes the slant range `measured_m` at time `t` (s, after the last frame's), read at
+    /// `scale` (a sensor's at [`ImageScale::SHARP`]), whose noise the window puts at
+    /// `noise_sd_m` (one sigma, m; None while unknown),
     /// and returns the filtered range. A measurement that is not finite and positive leaves the
     /// filter as it was and gives None.
     pub fn update(
@@ -200,12 +201,12 @@ impl RangeFilter {
         let prediction = match self.last {
             Some(last) if t > last.estimate.t => {
                 let (x, p) = predict(&last.estimate, t, config);
-                Some((last.estimate.t, Track { t, x, p }))
+                Some((last.estimate.t, last.estimate.x, Track { t, x, p }))
             }
             _ => None,
         };
         let (x, p) = match prediction {
-            Some((_, predicted)) => (predicted.x, predicted.p),
+            Some((_, _, predicted)) => (predicted.x, predicted.p),
             None => initial(z, noise, config),
         };
         let (x, p) = correct(x, p, z, noise * noise, f64::from(config.huber_sigmas));
@@ -234,11 +235,12 @@ pub fn smooth(steps: &mut [FilterStep]) {
         let (Some(next), Some(step)) = (steps.get(k).copied(), steps.get_mut(k - 1)) else {
             continue;
         };
-        let Some((from_t, predicted)) = next.prediction else {
+        let Some((from_t, from_x, predicted)) = next.prediction else {
             continue;
         };
         let current = &mut step.estimate;
-        if from_t != current.t {
+        // Times restart with every track: the state, not yet smoothed here, tells them apart.
+        if from_t != current.t || from_x != current.x {
             continue;
         }
         let Some(predicted_inverse) = predicted.p.try_inverse() else {
@@ -455,6 +457,17 @@ mod tests {
         assert_eq!(steps[9], end_of_first);
         assert!((steps[0].range().range_m - 1000.0).abs() < 1.0);
         assert!((steps[10].range().range_m - 3000.0).abs() < 1.0);
+        // Times restart with a track: a step predicted from a new track's first frame (at
+        // t = 0, not kept) does not join an old track's step at t = 0.
+        let mut old = RangeFilter::new();
+        old.update(0.0, 1000.0, Some(2.0), &SCALE, &config);
+        let mut new = RangeFilter::new();
+        new.update(0.0, 3000.0, Some(2.0), &SCALE, &config);
+        new.update(1.0 / 30.0, 3005.0, Some(2.0), &SCALE, &config);
+        let kept = old.last_step().unwrap();
+        let mut pair = [kept, new.last_step().unwrap()];
+        smooth(&mut pair);
+        assert_eq!(pair[0], kept);
     }
 
     /// A constant rate is followed without lag: the error after 40 noiseless frames is tiny.

@@ -37,7 +37,8 @@ pub enum RangeSmoothing {
 pub struct TemporalConfig {
     /// How the image range is smoothed.
     pub range_smoothing: RangeSmoothing,
-    /// The motion model's tunables ([`RangeSmoothing::MotionModel`]).
+    /// The motion model's tunables: its filter smooths the image range
+    /// ([`RangeSmoothing::MotionModel`]) and takes a range sensor's readings in either mode.
     pub range_filter: RangeFilterConfig,
     /// Weight `r` of the source paper's Eq. 5 Tz smoothing, in (0, 1], for frames
     /// `tz_smoothing_interval_s` apart; 1 disables smoothing.
@@ -48,7 +49,7 @@ pub struct TemporalConfig {
     pub tz_smoothing_interval_s: f32,
     /// Frames in the window for the Tz trend (at most [`MAX_WINDOW`]).
     pub window_frames: usize,
-    /// Fewest frames in the window before the yaw choice can be resolved.
+    /// Fewest frames in the window before its range trend can resolve the yaw choice.
     pub min_trend_frames: usize,
     /// Significance of the Tz trend, in standard errors, needed to resolve the yaw choice.
     pub trend_sigma: f32,
@@ -149,7 +150,8 @@ pub struct Trend {
 pub struct YawChoice {
     /// True: the nose points away from the camera (candidate 0); false: towards it.
     pub away: bool,
-    /// True when the current trend decided it.
+    /// True when the evidence decided it: the window's range trend, or the filter's range rate,
+    /// beyond `trend_sigma` of their standard errors.
     pub resolved: bool,
 }
 
@@ -157,9 +159,11 @@ impl YawChoice {
     /// The choice a range rate of `rate_m_s` ± `sd_m_s` (one sigma) makes: the side of its sign
     /// (a growing range: the nose points away in nose-first flight), the likelier one, resolved
     /// where the rate differs from zero by more than `sigmas` sigmas; `fallback`, unresolved,
-    /// where it has no sign.
+    /// where the rate has no sign or its sigma is not positive. An unresolved side follows the
+    /// rate's sign even within a sigma of zero: keeping the last side instead (tried) was right
+    /// less often (small-towards-camera without the range: 65 % against 80 %).
     pub fn of_rate(rate_m_s: f32, sd_m_s: f32, sigmas: f32, fallback: bool) -> YawChoice {
-        if !(rate_m_s.is_finite() && rate_m_s != 0.0) {
+        if !(rate_m_s.is_finite() && rate_m_s != 0.0 && sd_m_s > 0.0) {
             return YawChoice {
                 away: fallback,
                 resolved: false,
@@ -516,6 +520,50 @@ mod tests {
             if t >= t0 + 3.0 * dt {
                 assert!(choice.resolved && choice.away, "frame {k}: {choice:?}");
             }
+        }
+    }
+
+    /// A rate beyond three sigmas resolves the side of its sign; within them it still picks
+    /// that side, unresolved; a rate without a sign or a sigma that is not positive keeps the
+    /// fallback.
+    #[test]
+    fn a_range_rate_chooses_the_side_of_its_sign() {
+        let choice = |rate: f32, sd: f32| YawChoice::of_rate(rate, sd, 3.0, true);
+        assert_eq!(
+            choice(-40.0, 10.0),
+            YawChoice {
+                away: false,
+                resolved: true
+            }
+        );
+        assert_eq!(
+            choice(25.0, 10.0),
+            YawChoice {
+                away: true,
+                resolved: false
+            }
+        );
+        assert_eq!(
+            choice(-25.0, 10.0),
+            YawChoice {
+                away: false,
+                resolved: false
+            }
+        );
+        for (rate, sd) in [
+            (0.0, 10.0),
+            (-40.0, 0.0),
+            (f32::NAN, 1.0),
+            (-40.0, f32::NAN),
+        ] {
+            assert_eq!(
+                choice(rate, sd),
+                YawChoice {
+                    away: true,
+                    resolved: false
+                },
+                "{rate} {sd}"
+            );
         }
     }
 

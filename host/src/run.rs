@@ -316,12 +316,11 @@ pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<Cli
                     if job.save_masks && result.status != Status::BadInput {
                         save_stage_masks(&pipeline, &job.out_dir, row.frame)?;
                     }
-                    if let Some(solved) = pipeline.last_solved() {
-                        recorded.push(Recorded {
-                            row: rows.len(),
-                            solved: *solved,
-                        });
-                    }
+                    recorded.push(Recorded {
+                        row: rows.len(),
+                        step: pipeline.last_range_step(),
+                        solved: pipeline.last_solved().copied(),
+                    });
                     Row::Frame(row.frame, result)
                 }
                 Err(error) => {

@@ -10,44 +10,43 @@
 //! rate of the sensor's ranges.
 
 use imade_core::pipeline::Solved;
-use imade_core::range_filter;
+use imade_core::range_filter::{self, FilterStep};
 use imade_core::temporal::{Estimate, YawChoice};
 use imade_core::{FrameResult, Pipeline};
 
-/// One frame with a pose in a recorded clip: its place among the clip's rows and what it was
-/// solved from.
+/// One processed frame of a recorded clip: its place among the clip's rows, the range filter's
+/// step there (where it took a range) and what its pose was solved from (where it has one).
 #[derive(Debug, Clone, Copy)]
 pub struct Recorded {
     /// Index of the frame's row in the clip's results.
     pub row: usize,
-    /// What the pipeline solved the frame from.
-    pub solved: Solved,
+    /// The range filter's step ([`Pipeline::last_range_step`]).
+    pub step: Option<FilterStep>,
+    /// What the pipeline solved the frame's pose from ([`Pipeline::last_solved`]).
+    pub solved: Option<Solved>,
 }
 
-/// The smoothed results of the `recorded` frames (in time order) that the motion model took,
-/// each with its row index.
+/// The smoothed results of the `recorded` frames (in time order) that have a pose and a filter
+/// step, each with its row index. Every step goes through the smoother, also those of frames
+/// without a pose (a sensor's range where the image gave none), so the backward pass runs
+/// through them.
 pub fn smoothed_results(pipeline: &Pipeline, recorded: &[Recorded]) -> Vec<(usize, FrameResult)> {
-    let filtered: Vec<&Recorded> = recorded
-        .iter()
-        .filter(|r| r.solved.range_step.is_some())
-        .collect();
-    let mut steps: Vec<_> = filtered
-        .iter()
-        .filter_map(|r| r.solved.range_step)
-        .collect();
+    let stepped: Vec<&Recorded> = recorded.iter().filter(|r| r.step.is_some()).collect();
+    let mut steps: Vec<FilterStep> = stepped.iter().filter_map(|r| r.step).collect();
     range_filter::smooth(&mut steps);
     let sigmas = pipeline.config().temporal.trend_sigma;
-    filtered
+    stepped
         .iter()
         .zip(&steps)
-        .map(|(r, step)| {
+        .filter_map(|(r, step)| Some((r.row, r.solved.as_ref()?, step)))
+        .map(|(row, solved, step)| {
             let (rate, rate_sd) = step.rate();
-            let choice = YawChoice::of_rate(rate, rate_sd, sigmas, r.solved.estimate.choice.away);
-            let estimate = if r.solved.measurement.hypothesis.sensor_range_m.is_some() {
+            let choice = YawChoice::of_rate(rate, rate_sd, sigmas, solved.estimate.choice.away);
+            let estimate = if solved.measurement.hypothesis.sensor_range_m.is_some() {
                 // The sensor's range stands as given; only the side is decided again.
                 Estimate {
                     choice,
-                    ..r.solved.estimate
+                    ..solved.estimate
                 }
             } else {
                 let range = step.range();
@@ -57,7 +56,7 @@ pub fn smoothed_results(pipeline: &Pipeline, recorded: &[Recorded]) -> Vec<(usiz
                     choice,
                 }
             };
-            (r.row, pipeline.resolve(&r.solved, &estimate))
+            (row, pipeline.resolve(solved, &estimate))
         })
         .collect()
 }

@@ -122,9 +122,14 @@ pub fn frame_errors(frame: u64, truth: &GroundTruth, row: &ResultRow) -> Option<
         .map_or(f64::INFINITY, |a| angle(a, truth.yaw_deg));
     // The sigmas do not count the choice between the mirror candidates (docs/formats.md): they
     // are judged on the candidate nearer the truth. Errors here are per km; a sigma is not.
-    let (pitch_judged, yaw_judged) = match row.pitch_alt_deg {
-        Some(pitch_alt) if yaw_alt < yaw => (angle(pitch_alt, truth.pitch_deg), yaw_alt),
-        _ => (pitch, yaw.min(yaw_alt)),
+    // Where the mirror is nearer but its pitch is not given, pitch is not judged.
+    let (pitch_judged, yaw_judged) = if yaw_alt < yaw {
+        (
+            row.pitch_alt_deg.map(|p| angle(p, truth.pitch_deg)),
+            yaw_alt,
+        )
+    } else {
+        (Some(pitch), yaw)
     };
     let within = |error_per_km: f64, sd: Option<f64>| sd.map(|sd| error_per_km * km <= 2.0 * sd);
     Some(FrameErrors {
@@ -142,7 +147,7 @@ pub fn frame_errors(frame: u64, truth: &GroundTruth, row: &ResultRow) -> Option<
             .tz_sd_m
             .zip(row.tz_m)
             .map(|(sd, tz)| (tz - truth.tz_m).abs() <= 2.0 * sd),
-        pitch_within_two_sd: within(pitch_judged, row.pitch_sd_deg),
+        pitch_within_two_sd: pitch_judged.and_then(|p| within(p, row.pitch_sd_deg)),
         yaw_within_two_sd: within(yaw_judged, row.yaw_sd_deg),
     })
 }
