@@ -417,31 +417,22 @@ impl Temporal {
         let decided = (shortest..=self.window.len())
             .filter_map(|frames| self.recent_trend(frames))
             .find(|tr| libm::fabsf(tr.slope) > config.trend_sigma * tr.stderr);
-        match decided {
-            Some(tr) => {
-                let away = tr.slope > 0.0;
-                self.last_away = Some(away);
-                YawChoice {
-                    away,
-                    resolved: true,
-                }
-            }
+        let choice = match decided {
+            Some(tr) => YawChoice {
+                away: tr.slope > 0.0,
+                resolved: true,
+            },
             None => {
                 let fallback = self.last_away.unwrap_or(true);
-                let Some(step) = self.range_step(t) else {
-                    return YawChoice {
-                        away: fallback,
-                        resolved: false,
-                    };
-                };
-                let (rate, rate_sd) = step.rate();
-                let choice = YawChoice::of_rate(rate, rate_sd, config.trend_sigma, fallback);
-                if choice.resolved {
-                    self.last_away = Some(choice.away);
-                }
-                choice
+                // Without the filter's step the rate has no sign: the fallback stands.
+                let (rate, rate_sd) = self.range_step(t).map_or((0.0, 0.0), |step| step.rate());
+                YawChoice::of_rate(rate, rate_sd, config.trend_sigma, fallback)
             }
+        };
+        if choice.resolved {
+            self.last_away = Some(choice.away);
         }
+        choice
     }
 }
 

@@ -179,16 +179,17 @@ impl Measurement {
     pub fn at_range(&self, camera: &Camera, model: &ProjectileModel, range_m: f32) -> ClosedForm {
         let closed = || self.hypothesis.at_range(camera, model, range_m);
         match &self.matched {
-            Some(m) if self.hypothesis.sensor_range_m.is_some() => {
-                m.at_range(camera, model, range_m)
+            Some(m) if self.lengths_averaged() == 2 => {
+                m.at_range(camera, model, range_m).mean(&closed())
             }
-            Some(m) => m.at_range(camera, model, range_m).mean(&closed()),
+            Some(m) => m.at_range(camera, model, range_m),
             None => closed(),
         }
     }
 
     /// How many measurements of the apparent length [`Measurement::at_range`] averages: two
-    /// where it takes the mean of the match and the closed form, else one.
+    /// (the match's and the closed form's) where the match ran and the range is not given, else
+    /// one.
     pub fn lengths_averaged(&self) -> u8 {
         if self.matched.is_some() && self.hypothesis.sensor_range_m.is_none() {
             2

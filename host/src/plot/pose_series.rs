@@ -9,6 +9,9 @@ use plotters::prelude::*;
 use std::collections::HashMap;
 use std::path::Path;
 
+/// A column of a results row (a value or its sigma), where the row gives it.
+type Column = fn(&ResultRow) -> Option<f64>;
+
 /// Writes the figure for one results file to `path` (1500 x 900 px).
 pub fn plot(clip: &Clip, rows: &[ResultRow], title: &str, path: &Path) -> anyhow::Result<()> {
     let truth: Vec<(&FrameRow, GroundTruth)> = clip
@@ -25,25 +28,18 @@ pub fn plot(clip: &Clip, rows: &[ResultRow], title: &str, path: &Path) -> anyhow
     let true_of = |f: fn(&GroundTruth) -> f64| -> Vec<(f64, f64)> {
         truth.iter().map(|(r, t)| (r.frame as f64, f(t))).collect()
     };
-    let estimate_of = |f: fn(&ResultRow) -> Option<f64>| -> Vec<(f64, f64)> {
-        truth
-            .iter()
-            .filter_map(|(r, _)| Some((r.frame as f64, f(ok.get(&r.frame)?)?)))
-            .collect()
-    };
-    // The sigmas of `estimate_of(value)`'s points, in its order.
-    let sigmas_of = |value: fn(&ResultRow) -> Option<f64>,
-                     sd: fn(&ResultRow) -> Option<f64>|
-     -> Vec<Option<f64>> {
+    // The estimate's points (frame, value) and, where `sd` gives one, each point's sigma.
+    let estimate_of = |value: Column, sd: Column| -> (Vec<(f64, f64)>, Vec<Option<f64>>) {
         truth
             .iter()
             .filter_map(|(r, _)| {
                 let row = ok.get(&r.frame)?;
-                value(row).map(|_| sd(row))
+                Some(((r.frame as f64, value(row)?), sd(row)))
             })
-            .collect()
+            .unzip()
     };
-    let pair = |truth: Vec<(f64, f64)>, estimate: Vec<(f64, f64)>| {
+    let no_sd: Column = |_| None;
+    let pair = |truth: Vec<(f64, f64)>, (points, sigmas): (Vec<(f64, f64)>, Vec<Option<f64>>)| {
         vec![
             Series {
                 label: "truth",
@@ -56,16 +52,12 @@ pub fn plot(clip: &Clip, rows: &[ResultRow], title: &str, path: &Path) -> anyhow
                 label: "estimate",
                 mark: Mark::Dots,
                 color: ESTIMATE,
-                points: estimate,
-                sigmas: Vec::new(),
+                points,
+                sigmas,
             },
         ]
     };
-    let with_sigmas = |mut series: Vec<Series<'static>>, sigmas: Vec<Option<f64>>| {
-        series[1].sigmas = sigmas;
-        series
-    };
-    let with_alt = |mut series: Vec<Series<'static>>, alt: Vec<(f64, f64)>| {
+    let with_alt = |mut series: Vec<Series<'static>>, (alt, _): (Vec<(f64, f64)>, _)| {
         series.push(Series {
             label: "mirrored candidate",
             mark: Mark::Crosses,
@@ -76,7 +68,7 @@ pub fn plot(clip: &Clip, rows: &[ResultRow], title: &str, path: &Path) -> anyhow
         series
     };
     let slant = |t: &GroundTruth| (t.tx_m * t.tx_m + t.ty_m * t.ty_m + t.tz_m * t.tz_m).sqrt();
-    let mut range = pair(true_of(slant), estimate_of(|r| r.image_range_m));
+    let mut range = pair(true_of(slant), estimate_of(|r| r.image_range_m, no_sd));
     range[1].label = "from the image";
     range.push(Series {
         label: "range sensor",
@@ -92,41 +84,38 @@ pub fn plot(clip: &Clip, rows: &[ResultRow], title: &str, path: &Path) -> anyhow
         (
             "Tx",
             "m",
-            pair(true_of(|t| t.tx_m), estimate_of(|r| r.tx_m)),
+            pair(true_of(|t| t.tx_m), estimate_of(|r| r.tx_m, no_sd)),
         ),
         (
             "Ty",
             "m",
-            pair(true_of(|t| t.ty_m), estimate_of(|r| r.ty_m)),
+            pair(true_of(|t| t.ty_m), estimate_of(|r| r.ty_m, no_sd)),
         ),
         (
             "Tz",
             "m",
-            with_sigmas(
-                pair(true_of(|t| t.tz_m), estimate_of(|r| r.tz_m)),
-                sigmas_of(|r| r.tz_m, |r| r.tz_sd_m),
-            ),
+            pair(true_of(|t| t.tz_m), estimate_of(|r| r.tz_m, |r| r.tz_sd_m)),
         ),
         (
             "pitch",
             "deg",
             with_alt(
-                with_sigmas(
-                    pair(true_of(|t| t.pitch_deg), estimate_of(|r| r.pitch_deg)),
-                    sigmas_of(|r| r.pitch_deg, |r| r.pitch_sd_deg),
+                pair(
+                    true_of(|t| t.pitch_deg),
+                    estimate_of(|r| r.pitch_deg, |r| r.pitch_sd_deg),
                 ),
-                estimate_of(|r| r.pitch_alt_deg),
+                estimate_of(|r| r.pitch_alt_deg, no_sd),
             ),
         ),
         (
             "yaw",
             "deg",
             with_alt(
-                with_sigmas(
-                    pair(true_of(|t| t.yaw_deg), estimate_of(|r| r.yaw_deg)),
-                    sigmas_of(|r| r.yaw_deg, |r| r.yaw_sd_deg),
+                pair(
+                    true_of(|t| t.yaw_deg),
+                    estimate_of(|r| r.yaw_deg, |r| r.yaw_sd_deg),
                 ),
-                estimate_of(|r| r.yaw_alt_deg),
+                estimate_of(|r| r.yaw_alt_deg, no_sd),
             ),
         ),
         ("slant range |T|", "m", range),
