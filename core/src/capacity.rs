@@ -27,6 +27,10 @@ pub const DEFAULT_MAX_LABELS: usize = 512;
 /// Largest number of components (of at least the minimum area) kept for target selection.
 pub const MAX_COMPONENTS: usize = 64;
 
+/// Blocks of the bar search's grid ([`crate::segment::bar`]): a 256 x 256 chip in blocks of
+/// 4 px (a 7-px body); coarser blocks where the chip or the body is larger.
+pub const BAR_GRID_CELLS: usize = 4096;
+
 /// Largest number of components merged into one target (the main one and its fragments).
 pub const MAX_TARGET_PARTS: usize = 8;
 

@@ -47,6 +47,8 @@ pub mod segment;
 pub mod shape_guided;
 pub mod table_match;
 pub mod temporal;
+#[cfg(test)]
+mod testing;
 pub mod track;
 pub mod uncertainty;
 

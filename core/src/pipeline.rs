@@ -56,17 +56,19 @@ pub struct Solved {
 
 /// The pipeline with its stages: `MAX_RUNS` and `MAX_LABELS` size the detection's labeler,
 /// `MASK_WORDS` its chip masks (32-bit words each, [`crate::capacity::mask_words`] of the
-/// largest chip side: 512 px by default; a larger chip is then a `Capacity` status). See
+/// largest chip side: 512 px by default; a larger chip is then a `Capacity` status), and
+/// `BAR_CELLS` the grid of its bar search ([`crate::segment::bar`]; 0: no bar search). See
 /// [`crate::capacity`].
 pub struct Pipeline<
     const MAX_RUNS: usize = DEFAULT_MAX_RUNS,
     const MAX_LABELS: usize = DEFAULT_MAX_LABELS,
     const MASK_WORDS: usize = { crate::capacity::MASK_WORDS },
+    const BAR_CELLS: usize = { crate::capacity::BAR_GRID_CELLS },
 > {
     config: Config,
     camera: Camera,
     model: ProjectileModel<'static>,
-    detect: Segmenter<MAX_RUNS, MAX_LABELS, MASK_WORDS>,
+    detect: Segmenter<MAX_RUNS, MAX_LABELS, MASK_WORDS, BAR_CELLS>,
     table_match: TableMatch<MASK_WORDS>,
     temporal: Temporal,
     track: Track,
@@ -74,8 +76,12 @@ pub struct Pipeline<
     range_step: Option<FilterStep>,
 }
 
-impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
-    Pipeline<MAX_RUNS, MAX_LABELS, MASK_WORDS>
+impl<
+    const MAX_RUNS: usize,
+    const MAX_LABELS: usize,
+    const MASK_WORDS: usize,
+    const BAR_CELLS: usize,
+> Pipeline<MAX_RUNS, MAX_LABELS, MASK_WORDS, BAR_CELLS>
 {
     /// A pipeline for one camera and projectile.
     pub const fn new(config: Config, camera: Camera, model: ProjectileModel<'static>) -> Self {

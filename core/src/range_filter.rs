@@ -324,25 +324,13 @@ fn correct(x: State, p: Covariance, z: f64, r: f64, huber: f64) -> (State, Covar
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::noise_sequence;
 
     /// A body 8 px wide under a 0.9-px blur.
     const SCALE: ImageScale = ImageScale {
         diameter_px: 8.0,
         blur_px: 0.9,
     };
-
-    /// A deterministic, roughly Gaussian sequence (sum of 12 uniforms), unit variance.
-    fn noise_sequence(n: usize, seed: u32) -> impl Iterator<Item = f32> {
-        let mut state = seed;
-        (0..n).map(move |_| {
-            let mut sum = 0.0f32;
-            for _ in 0..12 {
-                state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-                sum += (state >> 8) as f32 / (1u32 << 24) as f32;
-            }
-            sum - 6.0
-        })
-    }
 
     /// A crossing flight past the closest approach, R = sqrt(R0^2 + v^2 (t - t0)^2), measured
     /// with 1 % noise: the filter's error is well under the measurement's, and within two of its

@@ -7,6 +7,8 @@
 use arbitrary::Arbitrary;
 use imade_core::lut::table::Table;
 use imade_core::mask::ChipMask;
+use imade_core::segment::bar::BarConfig;
+use imade_core::segment::corridor::CorridorConfig;
 use imade_core::{
     BodyPolarity, Camera, Config, DetectConfig, FrameInput, GuidedLoopConfig, GuidedMethod,
     MatchConfig, Pipeline, RangeFilterConfig, RangeSmoothing, RangeUse, SilhouetteConfig,
@@ -80,6 +82,10 @@ enum ConfigSpec {
         silhouette: [f32; 12],
         /// Every tunable of the uncertainties, in their field order.
         uncertainty: [f32; 4],
+        /// Every tunable of the bar search, in its field order (None: no bar search).
+        bar: Option<[f32; 13]>,
+        /// Every tunable of the sky corridor, in its field order (None: the tiles' sky).
+        corridor: Option<[f32; 6]>,
     },
 }
 
@@ -177,6 +183,8 @@ fn config(spec: &ConfigSpec) -> Config {
             end_weight,
             silhouette: s,
             uncertainty: u,
+            bar,
+            corridor,
         } => Config {
             range_use: range_use(ignore_range),
             detect: DetectConfig {
@@ -204,6 +212,29 @@ fn config(spec: &ConfigSpec) -> Config {
                 width_weight: b[6],
                 polarity_weight: b[7],
                 track_weight: b[8],
+                bar: bar.map(|a| BarConfig {
+                    block_diameters: a[0],
+                    length_fraction: a[1],
+                    min_length_diameters: a[2],
+                    flank_diameters: a[3],
+                    threshold_sigma: a[4],
+                    end_fraction: a[5],
+                    end_ceiling: a[6],
+                    max_gap_diameters: a[7],
+                    strong_sigma: a[8],
+                    overhang_lengths: a[9],
+                    min_bar_diameters: a[10],
+                    plume_min_sigma: a[11],
+                    plume_weight: a[12],
+                }),
+                corridor: corridor.map(|a| CorridorConfig {
+                    margin_px: a[0],
+                    axis_slope: a[1],
+                    flank_diameters: a[2],
+                    bin_diameters: a[3],
+                    length_scale: a[4],
+                    max_disagreement: a[5],
+                }),
             },
             silhouette: SilhouetteConfig {
                 half_length_sds: s[0],

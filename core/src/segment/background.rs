@@ -8,7 +8,8 @@
 
 use crate::capacity::{BACKGROUND_TILE, MAX_CHIP_SIDE, MAX_TILES_PER_SIDE, NOISE_SAMPLES};
 use crate::chip::ChipView;
-use crate::extremes::Axis;
+use crate::extremes::{Axis, row_span};
+use crate::segment::corridor::{Corridor, CorridorShape};
 
 /// Smallest noise standard deviation reported, grey levels (the quantization floor).
 const MIN_SIGMA: f32 = 0.3;
@@ -37,6 +38,10 @@ pub struct Background {
     rows: AxisTable,
     sigma: f32,
     samples: [f32; NOISE_SAMPLES],
+    /// The sky measured along the body, where the tiles do not follow it ([`corridor`]).
+    ///
+    /// [`corridor`]: crate::segment::corridor
+    corridor: Option<Corridor>,
 }
 
 /// The interpolation along one axis at every pixel of the chip, tabulated once per chip so that
@@ -119,6 +124,7 @@ impl Background {
             rows: AxisTable::new(),
             sigma: MIN_SIGMA,
             samples: [0.0; NOISE_SAMPLES],
+            corridor: None,
         }
     }
 
@@ -142,6 +148,28 @@ impl Background {
             }
         }
         self.sigma = self.noise_sigma_of(chip);
+        self.corridor = None;
+    }
+
+    /// Measures the sky along a body in the corridor `shape` ([`Corridor`]) and uses it there
+    /// from now on (until the next [`Background::estimate`]) where it disagrees with the tiles
+    /// by more than `max_disagreement` grey levels (rms); returns whether it does.
+    pub fn follow_corridor(
+        &mut self,
+        chip: &ChipView,
+        shape: &CorridorShape,
+        max_disagreement: f32,
+    ) -> bool {
+        self.corridor = None;
+        let Some(corridor) = Corridor::measure(chip, shape) else {
+            return false;
+        };
+        let disagreement = corridor.disagreement(|x, y| self.tiles_at(x, y));
+        let follow = disagreement > max_disagreement;
+        if follow {
+            self.corridor = Some(corridor);
+        }
+        follow
     }
 
     /// Re-estimates the tiles that `region` overlaps from their pixels outside it, and keeps
@@ -247,8 +275,17 @@ impl Background {
             .unwrap_or(0.0)
     }
 
-    /// Background at chip pixel (x, y), grey levels (bilinear between tile centres).
+    /// Background at chip pixel (x, y), grey levels: the corridor's where it has one there, else
+    /// bilinear between tile centres.
     pub fn at(&self, x: f32, y: f32) -> f32 {
+        if let Some(level) = self.corridor.as_ref().and_then(|c| c.at(x, y)) {
+            return level;
+        }
+        self.tiles_at(x, y)
+    }
+
+    /// The tiles' background at chip pixel (x, y), grey levels (bilinear between tile centres).
+    fn tiles_at(&self, x: f32, y: f32) -> f32 {
         let (x0, x1, wx) = self.columns.weights(x, self.tiles_x, self.width);
         let (y0, y1, wy) = self.rows.weights(y, self.tiles_y, self.height);
         let top = self.level(x0, y0) * (1.0 - wx) + self.level(x1, y0) * wx;
@@ -258,6 +295,32 @@ impl Background {
 
     /// Writes the background of row `y`, columns `x_start..x_start + out.len()`, into `out`.
     pub fn fill_row(&self, y: usize, x_start: usize, out: &mut [f32]) {
+        self.fill_row_from_tiles(y, x_start, out);
+        let Some(corridor) = &self.corridor else {
+            return;
+        };
+        let shape = corridor.shape();
+        let half = shape.half_length;
+        let end = x_start + out.len();
+        let (a, b) = row_span(
+            shape.axis.centre,
+            shape.axis.dir,
+            y,
+            (-half, half),
+            shape.outer,
+            (x_start, end),
+        );
+        for x in a..b {
+            if let (Some(level), Some(slot)) =
+                (corridor.at(x as f32, y as f32), out.get_mut(x - x_start))
+            {
+                *slot = level;
+            }
+        }
+    }
+
+    /// [`Background::fill_row`] from the tiles alone.
+    fn fill_row_from_tiles(&self, y: usize, x_start: usize, out: &mut [f32]) {
         let (y0, y1, wy) = self.rows.weights(y as f32, self.tiles_y, self.height);
         // The row's level at every tile centre, then linear between neighbouring centres.
         let mut centres = [0.0f32; MAX_TILES_PER_SIDE];

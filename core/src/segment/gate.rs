@@ -27,13 +27,26 @@ impl TrackGate {
     /// way, of its polarity.
     pub fn admits(&self, moments: &Moments) -> bool {
         let shape = Shape::of(moments);
-        let (dx, dy) = (
-            shape.centre.x - self.centre.x,
-            shape.centre.y - self.centre.y,
-        );
+        let polarity = if moments.class > 0 {
+            BodyPolarity::Bright
+        } else {
+            BodyPolarity::Dark
+        };
+        self.admits_line(shape.centre, shape.axis, polarity)
+    }
+
+    /// Whether a body centred at `centre` (chip px), lying along `axis`, of `polarity` is where
+    /// the track expects it.
+    pub fn admits_line(
+        &self,
+        centre: ImagePoint,
+        axis: ImagePoint,
+        polarity: BodyPolarity,
+    ) -> bool {
+        let (dx, dy) = (centre.x - self.centre.x, centre.y - self.centre.y);
         let near = dx * dx + dy * dy <= self.radius_px * self.radius_px;
-        let aligned = libm::fabsf(shape.axis.dot(self.axis)) >= self.min_axis_cos;
-        near && aligned && self.polarity.sign() == f32::from(moments.class)
+        let aligned = libm::fabsf(axis.dot(self.axis)) >= self.min_axis_cos;
+        near && aligned && self.polarity == polarity
     }
 }
 

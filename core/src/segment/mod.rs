@@ -8,17 +8,22 @@
 //! mask at a fraction of it (half, by default: the pixels at least half covered).
 
 pub mod background;
+pub mod bar;
+pub mod corridor;
 pub mod gate;
 pub mod label;
 pub mod select;
 
-use crate::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS, MAX_COMPONENTS};
+use crate::capacity::{BAR_GRID_CELLS, DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS, MAX_COMPONENTS};
 use crate::chip::ChipView;
 use crate::config::BodyPolarity;
+use crate::extremes::cross_profile::{self, Stretch};
 use crate::extremes::{Axis, Silhouette};
 use crate::mask::BitMask;
 use crate::point::ImagePoint;
 use background::{Background, Region};
+use bar::{Bar, BarConfig, BarRefusal, BarSearch, MAX_BARS};
+use corridor::CorridorConfig;
 pub use gate::{TrackGate, TrackUse};
 use label::{LabelError, Labeler, Moments, Rect};
 pub use select::UNIFORM_BAR_HALF_SDS;
@@ -78,6 +83,11 @@ pub struct DetectConfig {
     pub polarity_weight: f32,
     /// The bonus of a candidate where the track expects the body ([`TrackGate`]).
     pub track_weight: f32,
+    /// Where the body's size is expected, the bar search at its scale ([`bar`]); None: off.
+    pub bar: Option<BarConfig>,
+    /// The sky measured along the detected body where the tiles do not follow it
+    /// ([`corridor`]); None: the tiles' everywhere.
+    pub corridor: Option<CorridorConfig>,
 }
 
 impl DetectConfig {
@@ -107,6 +117,8 @@ impl DetectConfig {
         width_weight: 4.0,
         polarity_weight: 2.0,
         track_weight: 1.0,
+        bar: Some(BarConfig::DEFAULT),
+        corridor: Some(CorridorConfig::DEFAULT),
     };
 }
 
@@ -216,27 +228,39 @@ pub struct Target {
 }
 
 /// The detection stage and its fixed buffers: the sky model, the labeler (`MAX_RUNS` runs,
-/// `MAX_LABELS` provisional labels) and the target's chip mask (`MASK_WORDS` 32-bit words).
+/// `MAX_LABELS` provisional labels), the target's chip mask (`MASK_WORDS` 32-bit words) and the
+/// bar search's grid (`BAR_CELLS` blocks, three 4-byte values each; fewer than 9: no bar
+/// search).
 pub struct Segmenter<
     const MAX_RUNS: usize = DEFAULT_MAX_RUNS,
     const MAX_LABELS: usize = DEFAULT_MAX_LABELS,
     const MASK_WORDS: usize = { crate::capacity::MASK_WORDS },
+    const BAR_CELLS: usize = BAR_GRID_CELLS,
 > {
     background: Background,
     labeler: Labeler<MAX_RUNS, MAX_LABELS>,
     mask: BitMask<MASK_WORDS>,
+    bars: BarSearch<BAR_CELLS>,
 }
 
-impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize> Default
-    for Segmenter<MAX_RUNS, MAX_LABELS, MASK_WORDS>
+impl<
+    const MAX_RUNS: usize,
+    const MAX_LABELS: usize,
+    const MASK_WORDS: usize,
+    const BAR_CELLS: usize,
+> Default for Segmenter<MAX_RUNS, MAX_LABELS, MASK_WORDS, BAR_CELLS>
 {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
-    Segmenter<MAX_RUNS, MAX_LABELS, MASK_WORDS>
+impl<
+    const MAX_RUNS: usize,
+    const MAX_LABELS: usize,
+    const MASK_WORDS: usize,
+    const BAR_CELLS: usize,
+> Segmenter<MAX_RUNS, MAX_LABELS, MASK_WORDS, BAR_CELLS>
 {
     /// An empty segmenter.
     pub const fn new() -> Self {
@@ -244,6 +268,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             background: Background::new(),
             labeler: Labeler::new(),
             mask: BitMask::new(),
+            bars: BarSearch::new(),
         }
     }
 
@@ -273,11 +298,39 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
         aim: ImagePoint,
         expect: &Expectation,
     ) -> Result<Target, SegmentError> {
+        let target = self.detect_target(chip, config, aim, expect)?;
+        if let Some(corridor_config) = &config.corridor {
+            let shape = &target.shape;
+            let width = 2.0 * UNIFORM_BAR_HALF_SDS * shape.minor_sd;
+            let (diameter, span) = expect
+                .size
+                .map_or((width, width), |e| (e.diameter_px, e.span_px));
+            let half_length = UNIFORM_BAR_HALF_SDS * shape.major_sd;
+            let corridor = corridor_config.shape(shape.line(), half_length, diameter, span);
+            let contrast = libm::fabsf(target.moments.mean_residual());
+            self.background.follow_corridor(
+                chip,
+                &corridor,
+                corridor_config.max_disagreement * contrast,
+            );
+        }
+        Ok(target)
+    }
+
+    /// [`Segmenter::detect`] up to the target, on the tiles' sky.
+    fn detect_target(
+        &mut self,
+        chip: &ChipView,
+        config: &DetectConfig,
+        aim: ImagePoint,
+        expect: &Expectation,
+    ) -> Result<Target, SegmentError> {
         self.mask
             .reset(chip.width(), chip.height())
             .map_err(|_| SegmentError::Capacity(CapacityKind::Mask))?;
         self.background.estimate(chip);
-        let first = self.detect_on_sky(chip, config, aim, expect, None)?;
+        let first = self.detect_on_sky(chip, config, aim, expect, None);
+        let first = self.judge_by_bar(chip, config, aim, expect, first)?;
         if UNIFORM_BAR_HALF_SDS * 2.0 * first.shape.minor_sd < config.sky_exclusion_min_width_px {
             return Ok(first);
         }
@@ -411,6 +464,195 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             }
             (None, Some(first)) => Ok(first),
             (None, None) => Err(missing),
+        }
+    }
+
+    /// The component `target` (or its absence) judged against the strongest bars of the body's
+    /// width in the chip ([`bar`]), where the body's size is expected and the config has a bar
+    /// search and a polarity. A component of the body's polarity and high contrast stands
+    /// without a search, unless as a bar it runs into the chip's edge. Else each bar is judged
+    /// by the model (its
+    /// fitted cross-section must have the body's diameter) and scored ([`Segmenter::bar_score`]);
+    /// where the best lies on the component, or scores no better than the component measured
+    /// as a bar, the component stands, else the bar becomes the target, its mask the bar's
+    /// rectangle.
+    fn judge_by_bar(
+        &mut self,
+        chip: &ChipView,
+        config: &DetectConfig,
+        aim: ImagePoint,
+        expect: &Expectation,
+        target: Result<Target, SegmentError>,
+    ) -> Result<Target, SegmentError> {
+        let (Some(expected), Some(bar_config), Some(polarity)) =
+            (expect.size, config.bar, config.polarity)
+        else {
+            return target;
+        };
+        let sigma = self.background.sigma();
+        let longest = config.body_size.max_length * expected.length_px + config.body_size.margin_px;
+        if !self.bars.prepare(
+            chip,
+            sigma,
+            polarity.sign(),
+            &expected,
+            longest,
+            &bar_config,
+        ) {
+            return target;
+        }
+        // The component measured as a bar (None: not of the body's polarity).
+        let own = target.as_ref().ok().and_then(|t| {
+            (t.polarity == polarity)
+                .then(|| self.bars.measure(t.shape.centre, t.shape.axis, &bar_config))
+        });
+        // A component of the body's polarity and high contrast is the body, unless as a bar it
+        // runs into the chip's edge (a piece of terrain): no search.
+        let strong = target.as_ref().is_ok_and(|t| {
+            libm::fabsf(t.moments.mean_residual()) >= bar_config.strong_sigma * sigma
+        });
+        if strong && own.is_some_and(|o| o != Err(BarRefusal::AtEdge)) {
+            return target;
+        }
+        let own = own.and_then(Result::ok);
+        let mut bars: heapless::Vec<Bar, MAX_BARS> = heapless::Vec::new();
+        self.bars.search(&bar_config, &mut bars);
+        let judging = Judging {
+            config,
+            bar_config: &bar_config,
+            polarity,
+            aim,
+            diag: libm::hypotf(chip.width() as f32, chip.height() as f32),
+            gate: expect.gate.as_ref(),
+            expected: &expected,
+        };
+        let score = |bar: &Bar| self.bar_score(chip, bar, &judging);
+        let own_score = own.as_ref().and_then(&score);
+        let best = bars
+            .iter()
+            .filter_map(|b| score(b).map(|s| (s, b)))
+            .max_by(|a, b| a.0.total_cmp(&b.0));
+        let Some((best_score, bar)) = best else {
+            return target;
+        };
+        // The component stands where it lies on the winning bar (its mask is the finer one),
+        // or where its own bar scores at least as well.
+        let on_bar = target.as_ref().is_ok_and(|t| {
+            let line = Axis {
+                centre: bar.centre,
+                dir: bar.dir,
+            };
+            let (along, across) = line.local(t.shape.centre.x, t.shape.centre.y);
+            libm::fabsf(t.shape.axis.dot(bar.dir)) >= bar::PARALLEL_COS
+                && libm::fabsf(across) <= expected.diameter_px
+                && libm::fabsf(along) <= bar.half_length_px
+        });
+        if on_bar || own_score.is_some_and(|s| s >= best_score) {
+            return target;
+        }
+        let components = target.map_or(0, |t| t.components);
+        Ok(self.paint_bar(chip, bar, expected.diameter_px, polarity, components))
+    }
+
+    /// The selection score of `bar` as the body ([`select`]'s terms: its significance, its
+    /// nearness to the aim point; the agreement of its fitted diameter with the body's; the
+    /// track's bonus; a plume's at an end), or None where it is not significant or its
+    /// cross-section does not fit a body of the expected width.
+    fn bar_score(&self, chip: &ChipView, bar: &Bar, judging: &Judging) -> Option<f32> {
+        let Judging {
+            config,
+            bar_config,
+            polarity,
+            aim,
+            diag,
+            gate,
+            expected,
+        } = *judging;
+        let shape = Shape {
+            centre: bar.centre,
+            axis: bar.dir,
+            major_sd: bar.half_length_px / UNIFORM_BAR_HALF_SDS,
+            minor_sd: 0.5 * expected.diameter_px / UNIFORM_BAR_HALF_SDS,
+        };
+        let reach = 0.6 * bar.half_length_px;
+        let section = cross_profile::fit(
+            chip,
+            &self.background,
+            &shape,
+            polarity,
+            Stretch {
+                t0: -reach,
+                t1: reach,
+            },
+            2.0 * expected.diameter_px + 2.0,
+        )?;
+        let width = section.diameter_px;
+        let tolerance = &config.body_size;
+        let fits = width >= tolerance.min_width * expected.diameter_px
+            && width <= tolerance.max_width * expected.span_px + tolerance.margin_px;
+        if !fits || bar.significance.is_nan() || bar.significance < bar_config.threshold_sigma {
+            return None;
+        }
+        let ratio = libm::logf(width / expected.diameter_px.max(1e-3));
+        let (dx, dy) = (bar.centre.x - aim.x, bar.centre.y - aim.y);
+        let distance = libm::sqrtf(dx * dx + dy * dy) / diag.max(1.0);
+        let gated = gate.is_some_and(|g| g.admits_line(bar.centre, bar.dir, polarity));
+        let plume = bar.plume_sigma >= bar_config.plume_min_sigma;
+        Some(
+            libm::logf(1.0 + bar.significance)
+                - config.width_weight * ratio * ratio
+                - 4.0 * distance * distance
+                + if gated { config.track_weight } else { 0.0 }
+                + if plume { bar_config.plume_weight } else { 0.0 },
+        )
+    }
+
+    /// Paints `bar` as a rectangle `diameter_px` wide into the mask and returns it as the
+    /// target.
+    fn paint_bar(
+        &mut self,
+        chip: &ChipView,
+        bar: &Bar,
+        diameter_px: f32,
+        polarity: BodyPolarity,
+        components: u16,
+    ) -> Target {
+        self.mask.clear();
+        let class = if polarity.sign() > 0.0 { 1 } else { -1 };
+        let mut moments = Moments::empty(class);
+        let line = Axis {
+            centre: bar.centre,
+            dir: bar.dir,
+        };
+        let (half_length, half_width) = (bar.half_length_px, 0.5 * diameter_px);
+        let reach = libm::fabsf(bar.dir.x) * half_length + libm::fabsf(bar.dir.y) * half_width;
+        let (x_lo, x_hi) = clamped_span(bar.centre.x, reach, chip.width());
+        let reach = libm::fabsf(bar.dir.y) * half_length + libm::fabsf(bar.dir.x) * half_width;
+        let (y_lo, y_hi) = clamped_span(bar.centre.y, reach, chip.height());
+        for y in y_lo..y_hi {
+            let inside = |x: usize| {
+                let (along, across) = line.local(x as f32, y as f32);
+                libm::fabsf(along) <= half_length && libm::fabsf(across) <= half_width
+            };
+            let Some(x0) = (x_lo..x_hi).find(|&x| inside(x)) else {
+                continue;
+            };
+            let x1 = (x0..x_hi).take_while(|&x| inside(x)).last().unwrap_or(x0);
+            let (mut residual, mut value) = (0.0f32, 0u64);
+            chip.for_each_in_span(y, x0, x1 + 1, |x, v| {
+                residual += f32::from(v) - self.background.at(x as f32, y as f32);
+                value += u64::from(v);
+            });
+            self.mask.set_run(y, x0, x1);
+            moments.add_run(y as u16, x0 as u16, x1 as u16, residual, value);
+        }
+        Target {
+            polarity,
+            moments,
+            shape: Shape::of(&moments),
+            parts: 1,
+            components,
+            track: TrackUse::Fresh,
         }
     }
 
@@ -563,6 +805,31 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize, const MASK_WORDS: usize>
             track: target.track,
         })
     }
+}
+
+/// The pixels within `reach` px of `centre` along one side of a chip `len` px long: a start and
+/// an end (exclusive).
+fn clamped_span(centre: f32, reach: f32, len: usize) -> (usize, usize) {
+    let lo = libm::floorf(centre - reach).max(0.0) as usize;
+    let hi = (libm::ceilf(centre + reach) + 1.0).clamp(0.0, len as f32) as usize;
+    (lo.min(hi), hi)
+}
+
+/// What a frame's bars are judged with ([`Segmenter::bar_score`]).
+#[derive(Clone, Copy)]
+struct Judging<'a> {
+    config: &'a DetectConfig,
+    bar_config: &'a BarConfig,
+    /// The body's polarity.
+    polarity: BodyPolarity,
+    /// Where the tracker aims, chip px.
+    aim: ImagePoint,
+    /// The chip's diagonal, px.
+    diag: f32,
+    /// Where the track expects the body.
+    gate: Option<&'a TrackGate>,
+    /// The body's expected size.
+    expected: &'a ExpectedBody,
 }
 
 /// Paints the runs of the components `roots` of `labeler` into `mask`.

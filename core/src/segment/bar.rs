@@ -1,0 +1,806 @@
+//! The body looked for at its own scale: a straight bar of its diameter, darker (or brighter)
+//! than the sky on both sides, about as long as the model says it can look.
+//!
+//! In clutter a faint body does not stand out pixel by pixel, and what does (a plume, a cloud
+//! band, terrain, filaments as dark as the body) wins a selection by significance. Integrated
+//! over its own width and length the body is the strongest straight bar of its width:
+//!
+//! 1. The chip is averaged over blocks about half a diameter wide ([`BarConfig::block_diameters`]),
+//!    which raises a faint body's signal-to-noise by the block's side.
+//! 2. For each of `K` directions (a step of about a diameter over the integration length), every
+//!    block's sum along a digital line of the integration length is compared with the sums along
+//!    the two parallel lines a diameter and a gap to either side. The response is the smaller of
+//!    the two contrasts in noise sigmas: an edge darker on one side only (a cloud band's, the
+//!    terrain's) gives nothing, and a filament narrower than the body a fraction of its response.
+//!    Sliding sums make this a few operations per block and direction.
+//! 3. The strongest responses, apart, are the candidate bars ([`BarSearch::search`]). Each is
+//!    measured ([`BarSearch::measure`]): walked along its axis both ways until its contrast falls
+//!    below a fraction of its middle's, which gives its ends and length, so that a band or
+//!    filament longer than the body can be refused.
+
+use super::select::ExpectedBody;
+use crate::chip::ChipView;
+use crate::point::ImagePoint;
+
+/// Largest number of directions tried.
+pub const MAX_DIRECTIONS: usize = 64;
+
+/// Largest number of candidate bars kept.
+pub const MAX_BARS: usize = 8;
+
+/// Largest number of peaks (strongest responses, apart) measured as bars.
+const MAX_PEAKS: usize = 24;
+
+/// The bar search's tunables.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BarConfig {
+    /// Block side, in body diameters (at least 1 px; larger where the chip has more blocks than
+    /// the search's grid holds).
+    pub block_diameters: f32,
+    /// Integration length, as a fraction of the body's broadside length ...
+    pub length_fraction: f32,
+    /// ... and at least this many diameters.
+    pub min_length_diameters: f32,
+    /// The flank lines lie this many diameters from the bar's axis.
+    pub flank_diameters: f32,
+    /// Smallest response of a candidate, in noise sigmas of the contrast of its line sums.
+    pub threshold_sigma: f32,
+    /// A bar's end is where its contrast falls below this fraction of its middle's, or rises
+    /// above `end_ceiling` times it (terrain, far darker than a faint body, beyond its tail) ...
+    pub end_fraction: f32,
+    /// ... (the ceiling) ...
+    pub end_ceiling: f32,
+    /// ... for longer than this many diameters (shorter dips are crossed).
+    pub max_gap_diameters: f32,
+    /// A component target of the body's polarity whose mean contrast is at least this many
+    /// noise sigmas stands without a search (a body of high contrast is not in doubt), unless as
+    /// a bar it runs into the chip's edge (a piece of terrain).
+    pub strong_sigma: f32,
+    /// A measured bar whose ends lie within this fraction of the body's broadside length (or a
+    /// span) of the chip's edge is refused: the body's extremes may be cut.
+    pub overhang_lengths: f32,
+    /// A measured bar shorter than this many diameters is refused.
+    pub min_bar_diameters: f32,
+    /// A bar with a plume at an end ([`Bar::plume_sigma`] at least this) ...
+    pub plume_min_sigma: f32,
+    /// ... gains this in the selection's score.
+    pub plume_weight: f32,
+}
+
+impl BarConfig {
+    /// The defaults.
+    pub const DEFAULT: BarConfig = BarConfig {
+        block_diameters: 0.5,
+        length_fraction: 0.7,
+        min_length_diameters: 3.0,
+        flank_diameters: 1.25,
+        threshold_sigma: 6.0,
+        end_fraction: 0.4,
+        end_ceiling: 2.5,
+        max_gap_diameters: 1.5,
+        strong_sigma: 8.0,
+        overhang_lengths: 0.3,
+        min_bar_diameters: 2.5,
+        plume_min_sigma: 8.0,
+        plume_weight: 1.0,
+    };
+}
+
+impl Default for BarConfig {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// A bar in the chip: the body, or something shaped like it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Bar {
+    /// Its middle, chip px.
+    pub centre: ImagePoint,
+    /// Unit vector along it (either way).
+    pub dir: ImagePoint,
+    /// Half its length, px (the integration length's half until measured).
+    pub half_length_px: f32,
+    /// Its contrast against the flank with less, grey levels (the body's polarity positive).
+    pub contrast: f32,
+    /// Its significance: the contrast integrated over its length, in noise sigmas.
+    pub significance: f32,
+    /// The strongest contrast of the other polarity just beyond either end, in noise sigmas of
+    /// one block's contrast: a plume at the tail.
+    pub plume_sigma: f32,
+}
+
+/// Why a candidate bar is not the body.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum BarRefusal {
+    /// No contrast of the body's polarity along it.
+    NoContrast,
+    /// It runs on beyond the longest the body can look (a cloud band, a filament).
+    TooLong,
+    /// It runs into the chip's edge.
+    AtEdge,
+    /// It is shorter than [`BarConfig::min_bar_diameters`] (a compact spot, or a body seen
+    /// nearly end-on, which the components find).
+    TooShort,
+}
+
+/// The search's block grid and its buffers, `CELLS` blocks at most.
+pub struct BarSearch<const CELLS: usize> {
+    /// Block means, the body's polarity positive (sign times grey level).
+    blocks: [f32; CELLS],
+    /// Sums along the current direction's lines, per block (NaN: the line leaves the grid) ...
+    lines: [f32; CELLS],
+    /// ... and the variance of the blocks along them, grey levels squared.
+    scatter: [f32; CELLS],
+    cols: usize,
+    rows: usize,
+    /// Block side, px.
+    side: usize,
+    /// Noise standard deviation of one block mean, grey levels.
+    block_sigma: f32,
+    /// What the prepared chip is searched for (None: not prepared).
+    scale: Option<Scale>,
+}
+
+impl<const CELLS: usize> Default for BarSearch<CELLS> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// What [`BarSearch::search`] integrates over, from the expected body and the config.
+#[derive(Debug, Clone, Copy)]
+struct Scale {
+    diameter_px: f32,
+    overhang_px: f32,
+    length_px: f32,
+    flank_px: f32,
+    longest_px: f32,
+}
+
+impl<const CELLS: usize> BarSearch<CELLS> {
+    /// An empty search.
+    pub const fn new() -> Self {
+        BarSearch {
+            blocks: [0.0; CELLS],
+            lines: [0.0; CELLS],
+            scatter: [0.0; CELLS],
+            cols: 0,
+            rows: 0,
+            side: 1,
+            block_sigma: 1.0,
+            scale: None,
+        }
+    }
+
+    /// Averages `chip` (noise `sigma` grey levels a pixel) over blocks for a body of
+    /// `expected`'s size and polarity `sign` (+1 brighter than the sky, -1 darker), which can
+    /// be no longer than `longest_px`; false where that size gives no search. [`BarSearch::search`]
+    /// and [`BarSearch::measure`] work on the blocks.
+    pub fn prepare(
+        &mut self,
+        chip: &ChipView,
+        sigma: f32,
+        sign: f32,
+        expected: &ExpectedBody,
+        longest_px: f32,
+        config: &BarConfig,
+    ) -> bool {
+        self.scale = self.fill_blocks(chip, sigma, sign, expected, longest_px, config);
+        self.scale.is_some()
+    }
+
+    /// The strongest bars in the prepared chip ([`BarSearch::prepare`]), each measured
+    /// ([`BarSearch::measure`]); those refused are left out. Strongest first.
+    pub fn search(&mut self, config: &BarConfig, bars: &mut heapless::Vec<Bar, MAX_BARS>) {
+        bars.clear();
+        let Some(scale) = self.scale else {
+            return;
+        };
+        let mut peaks: heapless::Vec<Bar, MAX_PEAKS> = heapless::Vec::new();
+        let directions = scale.directions();
+        for k in 0..directions {
+            let angle = core::f32::consts::PI * k as f32 / directions as f32;
+            let dir = ImagePoint::new(libm::cosf(angle), libm::sinf(angle));
+            self.direction_peaks(dir, &scale, config, &mut peaks);
+        }
+        peaks.sort_unstable_by(|a, b| b.significance.total_cmp(&a.significance));
+        for peak in &peaks {
+            let (centre, dir) = self.refine(peak.centre, peak.dir, &scale);
+            if let Ok(bar) = self.walk(centre, dir, &scale, config) {
+                // Two peaks on one bar measure the same: keep one.
+                let same = bars.iter().any(|b| same_bar(b, &bar, scale.diameter_px));
+                if !same {
+                    let _ = bars.push(bar);
+                }
+            }
+        }
+        bars.sort_unstable_by(|a, b| b.significance.total_cmp(&a.significance));
+    }
+
+    /// Measures the bar nearest the line through `centre` along `dir` in the prepared chip
+    /// ([`BarSearch::prepare`]): its line refined as the search's, its ends, contrast and
+    /// significance.
+    pub fn measure(
+        &self,
+        centre: ImagePoint,
+        dir: ImagePoint,
+        config: &BarConfig,
+    ) -> Result<Bar, BarRefusal> {
+        let scale = self.scale.as_ref().ok_or(BarRefusal::NoContrast)?;
+        let (centre, dir) = self.refine(centre, dir, scale);
+        self.walk(centre, dir, scale, config)
+    }
+
+    /// Fills the block grid; None where the body's size gives no search.
+    fn fill_blocks(
+        &mut self,
+        chip: &ChipView,
+        sigma: f32,
+        sign: f32,
+        expected: &ExpectedBody,
+        longest_px: f32,
+        config: &BarConfig,
+    ) -> Option<Scale> {
+        let scale = scale_of(expected, longest_px, config);
+        let sizes = [scale.diameter_px, scale.length_px, scale.longest_px];
+        if !sizes.iter().all(|v| v.is_finite() && *v > 0.0) || !sigma.is_finite() {
+            return None;
+        }
+        let (width, height) = (chip.width(), chip.height());
+        if CELLS < 9 {
+            return None;
+        }
+        // At least the side that fits the chip in the grid, then up to it exactly.
+        let fit = libm::sqrtf((width * height) as f32 / CELLS as f32) as usize;
+        let mut side = ((config.block_diameters * scale.diameter_px) as usize).clamp(1, 64);
+        side = side.max(fit);
+        while (width / side) * (height / side) > CELLS {
+            side += 1;
+        }
+        let (cols, rows) = (width / side, height / side);
+        if cols < 3 || rows < 3 {
+            return None;
+        }
+        self.cols = cols;
+        self.rows = rows;
+        self.side = side;
+        self.block_sigma = sigma.max(0.3) / side as f32;
+        let norm = sign / (side * side) as f32;
+        self.blocks.iter_mut().for_each(|b| *b = 0.0);
+        for y in 0..rows * side {
+            let row = y / side;
+            chip.for_each_in_span(y, 0, cols * side, |x, v| {
+                if let Some(b) = self.blocks.get_mut(row * cols + x / side) {
+                    *b += norm * f32::from(v);
+                }
+            });
+        }
+        Some(scale)
+    }
+
+    /// The block at column `c`, row `r`, or None outside the grid.
+    fn block(&self, c: isize, r: isize) -> Option<f32> {
+        grid_at(&self.blocks, self.cols, self.rows, c, r)
+    }
+
+    /// The blocks across the bar at `p` (chip px): on it and `flank_px` to either side along
+    /// `normal` (None off the grid).
+    fn section_at(&self, p: ImagePoint, normal: ImagePoint, flank_px: f32) -> Option<Section> {
+        let cell = |q: ImagePoint| self.block_at(q);
+        Some(Section {
+            centre: cell(p)?,
+            plus: cell(p + normal * flank_px)?,
+            minus: cell(p - normal * flank_px)?,
+        })
+    }
+
+    /// The blocks' value at chip point `q`, bilinear between block centres (None where a block
+    /// it needs is off the grid).
+    fn block_at(&self, q: ImagePoint) -> Option<f32> {
+        let s = self.side as f32;
+        let (u, v) = (q.x / s - 0.5, q.y / s - 0.5);
+        let (c, r) = (libm::floorf(u), libm::floorf(v));
+        let (wu, wv) = (u - c, v - r);
+        let (c, r) = (c as isize, r as isize);
+        let top = self.block(c, r)? * (1.0 - wu) + self.block(c + 1, r)? * wu;
+        let bottom = self.block(c, r + 1)? * (1.0 - wu) + self.block(c + 1, r + 1)? * wu;
+        Some(top * (1.0 - wv) + bottom * wv)
+    }
+
+    /// The mean contrast along the line through `centre` along `dir` over `length_px`, sampled a
+    /// block apart (None where it leaves the grid).
+    fn line_contrast(&self, centre: ImagePoint, dir: ImagePoint, scale: &Scale) -> Option<f32> {
+        let step = self.side as f32;
+        let half_steps = ((0.5 * scale.length_px / step) as i32).max(1);
+        let normal = dir.perpendicular();
+        let mut sum = 0.0f32;
+        for i in -half_steps..=half_steps {
+            sum += self.contrast_at(centre + dir * (i as f32 * step), normal, scale.flank_px)?;
+        }
+        Some(sum / (2 * half_steps + 1) as f32)
+    }
+
+    /// The line near the one through `centre` along `dir` (turned by up to a direction step of
+    /// the search, moved by up to a block across) with the highest mean contrast: the search's
+    /// directions and blocks are coarse.
+    fn refine(
+        &self,
+        centre: ImagePoint,
+        dir: ImagePoint,
+        scale: &Scale,
+    ) -> (ImagePoint, ImagePoint) {
+        let step_rad = core::f32::consts::PI / scale.directions() as f32;
+        let mut best = (centre, dir, f32::NEG_INFINITY);
+        let angle = libm::atan2f(dir.y, dir.x);
+        for turn in -4i8..=4 {
+            let a = angle + f32::from(turn) * 0.25 * step_rad;
+            let dir = ImagePoint::new(libm::cosf(a), libm::sinf(a));
+            for shift in -2i8..=2 {
+                let moved =
+                    centre + dir.perpendicular() * (f32::from(shift) * 0.5 * self.side as f32);
+                if let Some(c) = self.line_contrast(moved, dir, scale)
+                    && c > best.2
+                {
+                    best = (moved, dir, c);
+                }
+            }
+        }
+        (best.0, best.1)
+    }
+
+    /// The bar's contrast at `p` ([`Section::contrast`]).
+    fn contrast_at(&self, p: ImagePoint, normal: ImagePoint, flank_px: f32) -> Option<f32> {
+        self.section_at(p, normal, flank_px).map(|s| s.contrast())
+    }
+
+    /// Sums along direction `dir`'s digital lines, then each block's response; the strongest,
+    /// apart, join `peaks`.
+    fn direction_peaks(
+        &mut self,
+        dir: ImagePoint,
+        scale: &Scale,
+        config: &BarConfig,
+        peaks: &mut heapless::Vec<Bar, MAX_PEAKS>,
+    ) {
+        // Walk the grid's major coordinate `u` (x where the direction is nearer the x axis);
+        // the minor one `v` steps by `slope` per block.
+        let x_major = libm::fabsf(dir.x) >= libm::fabsf(dir.y);
+        let (major, minor) = if x_major {
+            (dir.x, dir.y)
+        } else {
+            (dir.y, dir.x)
+        };
+        let slope = minor / major;
+        let (n_u, n_v) = if x_major {
+            (self.cols, self.rows)
+        } else {
+            (self.rows, self.cols)
+        };
+        let side = self.side as f32;
+        let half = ((scale.length_px * libm::fabsf(major) / (2.0 * side)) as usize).max(1);
+        let window = 2 * half + 1;
+        let flank = (libm::roundf(scale.flank_px / (side * libm::fabsf(major))) as usize).max(1);
+        let index = |u: usize, v: usize| {
+            if x_major {
+                v * self.cols + u
+            } else {
+                u * self.cols + v
+            }
+        };
+        let (blocks, lines, scatter) = (&self.blocks, &mut self.lines, &mut self.scatter);
+        let (cols, rows) = (self.cols, self.rows);
+        lines.iter_mut().for_each(|l| *l = f32::NAN);
+        let reach = libm::ceilf(libm::fabsf(slope) * n_u as f32) as isize + 1;
+        for v0 in -reach..n_v as isize + reach {
+            let v_at = |u: usize| v0 + libm::roundf(u as f32 * slope) as isize;
+            let value = |u: usize| {
+                let v = v_at(u);
+                if x_major {
+                    grid_at(blocks, cols, rows, u as isize, v)
+                } else {
+                    grid_at(blocks, cols, rows, v, u as isize)
+                }
+            };
+            let (mut sum, mut squares, mut count) = (0.0f32, 0.0f32, 0usize);
+            for lead in 0..n_u + half {
+                if lead < n_u
+                    && let Some(b) = value(lead)
+                {
+                    sum += b;
+                    squares += b * b;
+                    count += 1;
+                }
+                if let Some(trail) = lead.checked_sub(window)
+                    && let Some(b) = value(trail)
+                {
+                    sum -= b;
+                    squares -= b * b;
+                    count -= 1;
+                }
+                let Some(u) = lead.checked_sub(half) else {
+                    continue;
+                };
+                let Ok(v) = usize::try_from(v_at(u)) else {
+                    continue;
+                };
+                if u < n_u && v < n_v && count == window {
+                    let i = index(u, v);
+                    if let (Some(l), Some(s)) = (lines.get_mut(i), scatter.get_mut(i)) {
+                        let mean = sum / window as f32;
+                        (*l, *s) = (sum, (squares / window as f32 - mean * mean).max(0.0));
+                    }
+                }
+            }
+        }
+        let noise = self.block_sigma * libm::sqrtf(2.0 * window as f32);
+        let threshold = config.threshold_sigma * noise;
+        let block_variance = self.block_sigma * self.block_sigma;
+        for v in flank..n_v.saturating_sub(flank) {
+            for u in 0..n_u {
+                let line = |v: usize| self.lines.get(index(u, v)).copied().unwrap_or(f32::NAN);
+                let response = line(v) - line(v - flank).max(line(v + flank));
+                // NaN (a line off the grid) fails the comparison.
+                if response.is_nan() || response < threshold {
+                    continue;
+                }
+                let (x, y) = if x_major { (u, v) } else { (v, u) };
+                let centre = ImagePoint::new((x as f32 + 0.5) * side, (y as f32 + 0.5) * side);
+                // Ranked against the scatter of the blocks along the smoother flank line as well
+                // as the noise: terrain's or a cloud's texture makes strong responses, the sky
+                // beside a body is even (the body's own line is not, where it is shorter).
+                let scatter = |v: usize| self.scatter.get(index(u, v)).copied().unwrap_or(0.0);
+                let texture = scatter(v - flank).min(scatter(v + flank));
+                let peak = Bar {
+                    centre,
+                    dir,
+                    half_length_px: 0.5 * scale.length_px,
+                    contrast: response / window as f32,
+                    significance: response / noise
+                        * libm::sqrtf(block_variance / (block_variance + texture)),
+                    plume_sigma: 0.0,
+                };
+                keep_peak(peaks, peak, scale);
+            }
+        }
+    }
+
+    /// Walks the bar through `centre` along `dir` both ways to its ends.
+    fn walk(
+        &self,
+        centre: ImagePoint,
+        dir: ImagePoint,
+        scale: &Scale,
+        config: &BarConfig,
+    ) -> Result<Bar, BarRefusal> {
+        let normal = dir.perpendicular();
+        let step = self.side as f32;
+        let at = |t: f32| ImagePoint::new(centre.x + t * dir.x, centre.y + t * dir.y);
+        // The middle's contrast: the mean over the integration length.
+        let half_steps = ((0.5 * scale.length_px / step) as i32).max(1);
+        let (mut sum, mut count) = (0.0f32, 0i32);
+        for i in -half_steps..=half_steps {
+            if let Some(c) = self.contrast_at(at(i as f32 * step), normal, scale.flank_px) {
+                sum += c;
+                count += 1;
+            }
+        }
+        if count == 0 || sum.is_nan() || sum <= 0.0 {
+            return Err(BarRefusal::NoContrast);
+        }
+        let middle = sum / count as f32;
+        let (level, ceiling) = (config.end_fraction * middle, config.end_ceiling * middle);
+        let max_steps = (0.5 * scale.longest_px / step) as i32 + 2;
+        // A stretch below the level shorter than this is crossed (a filament, a cloud's edge).
+        let gap = (libm::ceilf(config.max_gap_diameters * scale.diameter_px / step) as i32).max(2);
+        // Each way: half a step beyond the last step at the level before `gap` below it.
+        let end = |way: f32| -> Result<f32, BarRefusal> {
+            let mut last = 0;
+            for i in 1..=max_steps {
+                let c = self
+                    .contrast_at(at(way * i as f32 * step), normal, scale.flank_px)
+                    .ok_or(BarRefusal::AtEdge)?;
+                if c >= level && c <= ceiling {
+                    last = i;
+                } else if i - last >= gap {
+                    return Ok(way * (last as f32 + 0.5) * step);
+                }
+            }
+            Err(BarRefusal::TooLong)
+        };
+        let (ahead, behind) = (end(1.0)?, end(-1.0)?);
+        let half_length_px = 0.5 * (ahead - behind);
+        if half_length_px > 0.5 * scale.longest_px {
+            return Err(BarRefusal::TooLong);
+        }
+        if half_length_px < config.min_bar_diameters * 0.5 * scale.diameter_px {
+            return Err(BarRefusal::TooShort);
+        }
+        // The body's extremes may lie well beyond where its bar fades (fins widen it, a nose
+        // tapers): `overhang_px` beyond each end must be in the chip.
+        let clear = scale.overhang_px + step;
+        let inside = |t: f32| self.contrast_at(at(t), normal, scale.flank_px).is_some();
+        if !inside(ahead + clear) || !inside(behind - clear) {
+            return Err(BarRefusal::AtEdge);
+        }
+        // Its contrast over the measured length, and how significant it is against the
+        // contrast's own scatter along it (terrain's texture scatters more than the noise).
+        let mid = 0.5 * (ahead + behind);
+        let steps = ((half_length_px / step) as usize).min(MAX_WALK_SAMPLES / 2);
+        let mut samples = [0.0f32; MAX_WALK_SAMPLES];
+        let mut count = 0usize;
+        for i in -(steps as i32)..=steps as i32 {
+            let c = self.contrast_at(at(mid + i as f32 * step), normal, scale.flank_px);
+            if let (Some(c), Some(slot)) = (c, samples.get_mut(count)) {
+                *slot = c;
+                count += 1;
+            }
+        }
+        let samples = samples.get_mut(..count).unwrap_or_default();
+        let contrast = samples.iter().sum::<f32>() / count.max(1) as f32;
+        let noise = self.block_sigma * libm::sqrtf(1.5);
+        let scatter = robust_sd(samples, contrast).max(noise);
+        // Beyond each end, within `gap` steps: the strongest glow of the other polarity.
+        let beyond = |end: f32, way: f32| {
+            (1..=gap)
+                .filter_map(|i| {
+                    self.section_at(at(end + way * i as f32 * step), normal, scale.flank_px)
+                })
+                .fold(0.0f32, |m, s| m.max(s.glow()))
+        };
+        let glow = beyond(ahead, 1.0).max(beyond(behind, -1.0));
+        Ok(Bar {
+            centre: at(mid),
+            dir,
+            half_length_px,
+            contrast,
+            significance: contrast / scatter * libm::sqrtf(count as f32),
+            plume_sigma: glow / noise,
+        })
+    }
+}
+
+/// The blocks across a bar at one place along it (the body's polarity positive).
+#[derive(Debug, Clone, Copy)]
+struct Section {
+    centre: f32,
+    plus: f32,
+    minus: f32,
+}
+
+impl Section {
+    /// The bar's contrast: its block less the mean of the two flanks' (a cloud band beside the
+    /// body takes half of it, not all).
+    fn contrast(&self) -> f32 {
+        self.centre - 0.5 * (self.plus + self.minus)
+    }
+
+    /// How far the block lies beyond both flanks on the other polarity's side (a plume's glow;
+    /// the sky beside terrain lies beyond one flank only), or 0.
+    fn glow(&self) -> f32 {
+        (self.plus.min(self.minus) - self.centre).max(0.0)
+    }
+}
+
+/// Largest number of contrast samples along a measured bar.
+const MAX_WALK_SAMPLES: usize = 256;
+
+/// A robust standard deviation of `values` about `mean`: 1.4826 times the median absolute
+/// deviation (reorders `values`).
+fn robust_sd(values: &mut [f32], mean: f32) -> f32 {
+    values.iter_mut().for_each(|v| *v = libm::fabsf(*v - mean));
+    let mid = values.len() / 2;
+    if values.is_empty() {
+        return 0.0;
+    }
+    let (_, median, _) = values.select_nth_unstable_by(mid, f32::total_cmp);
+    1.4826 * *median
+}
+
+/// The value at column `c`, row `r` of a grid `cols` x `rows` stored by rows, or None outside.
+fn grid_at(grid: &[f32], cols: usize, rows: usize, c: isize, r: isize) -> Option<f32> {
+    let (c, r) = (usize::try_from(c).ok()?, usize::try_from(r).ok()?);
+    (c < cols && r < rows)
+        .then(|| grid.get(r * cols + c).copied())
+        .flatten()
+}
+
+impl Scale {
+    /// The directions searched: a step of about a diameter over the integration length.
+    fn directions(&self) -> usize {
+        ((core::f32::consts::PI * self.length_px / self.diameter_px) as usize)
+            .clamp(4, MAX_DIRECTIONS)
+    }
+}
+
+/// The search's lengths for `expected`.
+fn scale_of(expected: &ExpectedBody, longest_px: f32, config: &BarConfig) -> Scale {
+    let diameter_px = expected.diameter_px;
+    Scale {
+        diameter_px,
+        overhang_px: expected
+            .span_px
+            .max(config.overhang_lengths * expected.length_px),
+        length_px: (config.length_fraction * expected.length_px)
+            .max(config.min_length_diameters * diameter_px),
+        flank_px: config.flank_diameters * diameter_px,
+        longest_px,
+    }
+}
+
+/// The smallest |cosine| between two lines taken as parallel (about 10 degrees).
+pub const PARALLEL_COS: f32 = 0.985;
+
+/// Whether two measured bars are one: parallel ([`PARALLEL_COS`]), their middles within a
+/// diameter across and a half-length along.
+fn same_bar(a: &Bar, b: &Bar, diameter_px: f32) -> bool {
+    let (dx, dy) = (b.centre.x - a.centre.x, b.centre.y - a.centre.y);
+    let d = ImagePoint::new(dx, dy);
+    libm::fabsf(a.dir.dot(b.dir)) >= PARALLEL_COS
+        && libm::fabsf(d.dot(a.dir.perpendicular())) <= diameter_px
+        && libm::fabsf(d.dot(a.dir)) <= a.half_length_px.max(b.half_length_px)
+}
+
+/// Adds `peak` to `peaks` unless a stronger one lies on the same bar (within half the
+/// integration length, about parallel); a weaker one there is replaced; when full, the weakest
+/// goes.
+fn keep_peak(peaks: &mut heapless::Vec<Bar, MAX_PEAKS>, peak: Bar, scale: &Scale) {
+    let near = |b: &Bar| {
+        let (dx, dy) = (peak.centre.x - b.centre.x, peak.centre.y - b.centre.y);
+        let apart = libm::sqrtf(dx * dx + dy * dy) <= 0.5 * scale.length_px;
+        apart && libm::fabsf(b.dir.dot(peak.dir)) >= 0.94
+    };
+    if let Some(i) = peaks.iter().position(near) {
+        if let Some(b) = peaks.get_mut(i)
+            && peak.significance > b.significance
+        {
+            *b = peak;
+        }
+        return;
+    }
+    if peaks.push(peak).is_err() {
+        let weakest = peaks
+            .iter()
+            .enumerate()
+            .min_by(|a, b| a.1.significance.total_cmp(&b.1.significance))
+            .map(|(i, b)| (i, b.significance));
+        if let Some((i, s)) = weakest
+            && peak.significance > s
+            && let Some(b) = peaks.get_mut(i)
+        {
+            *b = peak;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::noise_sequence;
+
+    const SIDE: usize = 256;
+
+    /// The fraction of the pixel at (`x`, `y`) within `half_width` px of the segment from `a` to
+    /// `b` (4 x 4 samples).
+    fn coverage(x: usize, y: usize, a: ImagePoint, b: ImagePoint, half_width: f32) -> f32 {
+        let d = b - a;
+        let length = d.norm();
+        let dir = d * (1.0 / length);
+        let mut inside = 0;
+        for k in 0..16 {
+            let p = ImagePoint::new(
+                x as f32 + (k % 4) as f32 * 0.25 - 0.375,
+                y as f32 + (k / 4) as f32 * 0.25 - 0.375,
+            );
+            let q = p - a;
+            let (along, across) = (q.dot(dir), q.dot(dir.perpendicular()));
+            if (0.0..=length).contains(&along) && libm::fabsf(across) <= half_width {
+                inside += 1;
+            }
+        }
+        inside as f32 / 16.0
+    }
+
+    /// A sky of 120 grey levels with noise 3, a faint dark body 7 px wide and 110 px long at 35
+    /// deg through the centre (12 grey levels, 4 sigma), a bright plume beyond its tail, a dark
+    /// cloud band across the chip and a dark filament 2 px wide across the body.
+    fn cluttered_chip() -> ([u8; SIDE * SIDE], ImagePoint, ImagePoint) {
+        let dir = ImagePoint::new(libm::cosf(0.61), libm::sinf(0.61));
+        let centre = ImagePoint::new(128.0, 128.0);
+        let (nose, tail) = (centre + dir * 55.0, centre - dir * 55.0);
+        let plume = tail - dir * 8.0;
+        let (f0, f1) = (ImagePoint::new(60.0, 200.0), ImagePoint::new(170.0, 40.0));
+        let mut noise = noise_sequence(SIDE * SIDE, 11);
+        let mut data = [0u8; SIDE * SIDE];
+        for (i, v) in data.iter_mut().enumerate() {
+            let (x, y) = (i % SIDE, i / SIDE);
+            let band = if (40..60).contains(&y) { -15.0 } else { 0.0 };
+            let (px, py) = (x as f32 - plume.x, y as f32 - plume.y);
+            let glow = 60.0 * libm::expf(-(px * px + py * py) / 32.0);
+            let value = 120.0 + band + glow
+                - 12.0 * coverage(x, y, tail, nose, 3.5)
+                - 12.0 * coverage(x, y, f0, f1, 1.0)
+                + 3.0 * noise.next().unwrap_or(0.0);
+            *v = value.clamp(0.0, 255.0) as u8;
+        }
+        (data, centre, dir)
+    }
+
+    fn expected() -> ExpectedBody {
+        ExpectedBody {
+            diameter_px: 7.0,
+            span_px: 7.0,
+            length_px: 120.0,
+        }
+    }
+
+    /// The faint body is the strongest bar: found through the filament, with its plume, and
+    /// along its axis; the band across the chip runs into the edge and is no bar.
+    #[test]
+    fn finds_a_faint_body_among_clutter() {
+        let (data, centre, dir) = cluttered_chip();
+        let chip = ChipView::gray8(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        let config = BarConfig::DEFAULT;
+        let mut search: BarSearch<4096> = BarSearch::new();
+        assert!(search.prepare(&chip, 3.0, -1.0, &expected(), 160.0, &config));
+        let mut bars = heapless::Vec::new();
+        search.search(&config, &mut bars);
+        let body = bars.first().expect("a bar");
+        let along = (body.centre - centre).dot(dir);
+        let across = (body.centre - centre).dot(dir.perpendicular());
+        assert!(
+            libm::fabsf(body.dir.dot(dir)) > libm::cosf(6f32.to_radians()),
+            "{body:?}"
+        );
+        assert!(
+            libm::fabsf(across) < 3.0 && libm::fabsf(along) < 20.0,
+            "{body:?}"
+        );
+        assert!((35.0..=62.0).contains(&body.half_length_px), "{body:?}");
+        assert!(body.plume_sigma >= config.plume_min_sigma, "{body:?}");
+        assert!(
+            body.significance >= 3.0 * config.threshold_sigma,
+            "{body:?}"
+        );
+        let band = search.measure(
+            ImagePoint::new(128.0, 50.0),
+            ImagePoint::new(1.0, 0.0),
+            &config,
+        );
+        assert!(
+            matches!(band, Err(BarRefusal::AtEdge | BarRefusal::TooLong)),
+            "{band:?}"
+        );
+    }
+
+    /// A grid too small for any chip, or a body of no size, gives no search.
+    #[test]
+    fn no_search_without_a_grid_or_a_size() {
+        let (data, _, _) = cluttered_chip();
+        let chip = ChipView::gray8(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        let config = BarConfig::DEFAULT;
+        let mut tiny: BarSearch<4> = BarSearch::new();
+        assert!(!tiny.prepare(&chip, 3.0, -1.0, &expected(), 160.0, &config));
+        let mut bars = heapless::Vec::new();
+        tiny.search(&config, &mut bars);
+        assert!(bars.is_empty());
+        let mut search: BarSearch<4096> = BarSearch::new();
+        let none = ExpectedBody {
+            diameter_px: f32::NAN,
+            ..expected()
+        };
+        assert!(!search.prepare(&chip, 3.0, -1.0, &none, 160.0, &config));
+        assert!(
+            search
+                .measure(
+                    ImagePoint::new(1.0, 1.0),
+                    ImagePoint::new(1.0, 0.0),
+                    &config
+                )
+                .is_err()
+        );
+    }
+}
