@@ -46,12 +46,13 @@ fn terrain_and_a_plume_do_not_take_the_bodys_place() {
 /// A faint dark body (3-5 noise deviations a pixel) with a bright plume over its tail far
 /// brighter than the body is dark, crossed by dark cloud filaments as dark as itself, under
 /// banded cloud: the bar of the body's width and length, with the plume at an end, is the
-/// target, and the sky along it is the corridor's. Before, the plume or a cloud patch was taken
-/// in every frame (median IoU 0, pitch 21 deg/km).
+/// target, the sky along it is the corridor's, and its cross-sections keep the diameter the
+/// range gives. Before, the plume or a cloud patch was taken in every frame (median IoU 0, pitch
+/// 21 deg/km).
 #[test]
 fn a_faint_body_is_found_beside_its_plume_and_filaments() {
     let (poses, pitch, iou) = run_clutter_clip("small-clutter-plume");
-    assert!(poses >= 17, "{poses} of 20 frames with a pose");
+    assert!(poses >= 18, "{poses} of 20 frames with a pose");
     assert!(iou >= 0.3, "median IoU of the blind mask {iou}");
-    assert!(pitch <= 18.0, "median pitch error {pitch} deg/km");
+    assert!(pitch <= 10.0, "median pitch error {pitch} deg/km");
 }

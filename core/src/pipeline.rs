@@ -265,7 +265,11 @@ impl<
                     self.detect.clear_mask();
                 }
             })?;
-        let silhouette = self.silhouette(chip, &target, nose_dir)?;
+        let prior = extremes::Prior {
+            nose_dir,
+            diameter_px: expected.map(|e| e.diameter_px),
+        };
+        let silhouette = self.silhouette(chip, &target, &prior)?;
         let target = self
             .detect
             .cut_mask(chip, &config.detect, &target, &silhouette)?;
@@ -305,19 +309,19 @@ impl<
             .then_some(expected)
     }
 
-    /// The silhouette stage on `target`.
+    /// The silhouette stage on `target`, with what is known of it beforehand.
     fn silhouette(
         &self,
         chip: &ChipView,
         target: &Target,
-        nose_dir: Option<ImagePoint>,
+        prior: &extremes::Prior,
     ) -> Result<Silhouette, FrameError> {
         extremes::measure(
             chip,
             self.detect.background(),
             target,
             &self.model,
-            nose_dir,
+            prior,
             &self.config.silhouette,
         )
         .map_err(|_| FrameError::Unmeasurable)

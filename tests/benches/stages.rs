@@ -46,9 +46,15 @@ fn prepare(fixture: &Fixture) -> Vec<Prepared<'_>> {
                 .ok()?;
             let background = segmenter.background().clone();
             let (model, camera) = (&fixture.model, &fixture.camera);
-            let silhouette =
-                extremes::measure(&chip, &background, &target, model, None, &config.silhouette)
-                    .ok()?;
+            let silhouette = extremes::measure(
+                &chip,
+                &background,
+                &target,
+                model,
+                &extremes::Prior::default(),
+                &config.silhouette,
+            )
+            .ok()?;
             let hypothesis =
                 Hypothesis::solve(&silhouette, frame.origin, camera, model, frame.range_m)?;
             Some(Prepared {
@@ -136,7 +142,7 @@ fn stages(c: &mut Criterion<ThreadCpuTime>) {
                 &p.background,
                 &p.target,
                 &fixture.model,
-                None,
+                &extremes::Prior::default(),
                 &config.silhouette,
             ))
         });

@@ -79,7 +79,7 @@ enum ConfigSpec {
         min_cylinder_px: f32,
         end_weight: f32,
         /// Every tunable of the silhouette stage, in its field order.
-        silhouette: [f32; 12],
+        silhouette: [f32; 13],
         /// Every tunable of the uncertainties, in their field order.
         uncertainty: [f32; 4],
         /// Every tunable of the bar search, in its field order (None: no bar search).
@@ -247,6 +247,7 @@ fn config(spec: &ConfigSpec) -> Config {
                 min_nose_evidence: s[9],
                 min_plume_area: s[10],
                 plume_dominance: s[11],
+                diameter_tolerance: s[12],
             },
             table_match: MatchConfig {
                 section_bin_px,

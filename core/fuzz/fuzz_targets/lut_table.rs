@@ -102,7 +102,14 @@ fn prepared() -> &'static Prepared {
         let background = segmenter.background().clone();
         let config = Config::DEFAULT.silhouette;
         let silhouette =
-            extremes::measure(&view, &background, &target, &reference(), None, &config)
+            extremes::measure(
+                &view,
+                &background,
+                &target,
+                &reference(),
+                &extremes::Prior::default(),
+                &config,
+            )
                 .expect("the projectile is measured");
         let range =
             closed_form::range_from_diameter(&silhouette, &CAMERA, &reference()).expect("a range");

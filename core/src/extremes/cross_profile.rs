@@ -144,8 +144,19 @@ pub fn bin(
     binned
 }
 
+/// Where the body's diameter is known beforehand (from the range), the diameters a fit may take,
+/// px: a faint body among clutter otherwise fits a wide, shallow box.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DiameterBounds {
+    /// Smallest, px.
+    pub min_px: f32,
+    /// Largest, px.
+    pub max_px: f32,
+}
+
 /// Fits the cross-section of `stretch`, where the shape's axis is `shape` and the body's pixels
-/// have contrast polarity `polarity`. `half_width` bounds the profile across the axis, px.
+/// have contrast polarity `polarity`, with a diameter within `bounds` where given. `half_width`
+/// bounds the profile across the axis, px.
 pub fn fit(
     chip: &ChipView,
     background: &Background,
@@ -153,10 +164,14 @@ pub fn fit(
     polarity: BodyPolarity,
     stretch: Stretch,
     half_width: f32,
+    bounds: Option<DiameterBounds>,
 ) -> Option<CrossSection> {
-    fit_binned(&bin(
-        chip, background, shape, polarity, stretch, half_width, BIN_PX,
-    ))
+    fit_binned(
+        &bin(
+            chip, background, shape, polarity, stretch, half_width, BIN_PX,
+        ),
+        bounds,
+    )
 }
 
 /// The box fit's Levenberg-Marquardt settings: the core's damping schedule, at most 30
@@ -170,15 +185,17 @@ const SOLVER: least_squares::Config = least_squares::Config {
 /// Diameter and blur below this are clamped, px.
 const MIN_WIDTH_PX: f32 = 0.2;
 
-/// Fits the blurred box to a binned cross-section.
-pub fn fit_binned(binned: &Binned) -> Option<CrossSection> {
+/// Fits the blurred box to a binned cross-section, with a diameter within `bounds` where given.
+pub fn fit_binned(binned: &Binned, bounds: Option<DiameterBounds>) -> Option<CrossSection> {
     let pixels = binned.pixels;
     if pixels < 8 {
         return None;
     }
-    let start = initial_guess(&|i| binned.point(i), binned.half_width)?;
+    let fit = BoxFit { binned, bounds };
+    let mut start = initial_guess(&|i| binned.point(i), binned.half_width)?;
+    fit.constrain_diameter(&mut start);
     // A start whose cost is not finite is kept as it is.
-    let p = least_squares::minimize(&BoxFit(binned), start, &SOLVER).map_or(start, |s| s.params);
+    let p = least_squares::minimize(&fit, start, &SOLVER).map_or(start, |s| s.params);
     let section = CrossSection {
         diameter_px: p[4],
         contrast: p[1],
@@ -247,26 +264,41 @@ fn model(s: f32, p: &Params) -> (f32, Params) {
     (value, gradient)
 }
 
-/// The blurred box fitted to a binned profile.
-struct BoxFit<'b>(&'b Binned);
+/// The blurred box fitted to a binned profile, its diameter within `bounds` where given.
+struct BoxFit<'b> {
+    binned: &'b Binned,
+    bounds: Option<DiameterBounds>,
+}
+
+impl BoxFit<'_> {
+    /// Diameter at least [`MIN_WIDTH_PX`] and within the bounds (where they are a range).
+    fn constrain_diameter(&self, p: &mut Params) {
+        p[4] = p[4].max(MIN_WIDTH_PX);
+        if let Some(b) = self.bounds
+            && b.min_px <= b.max_px
+        {
+            p[4] = p[4].clamp(b.min_px, b.max_px);
+        }
+    }
+}
 
 impl least_squares::Problem<6> for BoxFit<'_> {
     /// The weighted squared residual and the normal equations (`JᵀWJ`, `JᵀWr`) at `p`, from one
     /// evaluation of the model per point (its erf and exp dominate the fit's time).
     fn evaluate(&self, p: &Params) -> Option<Normal<6>> {
         let mut normal = Normal::zeros();
-        for (s, v, w) in self.0.points() {
+        for (s, v, w) in self.binned.points() {
             let (value, g) = model(s, p);
             normal.add(&g, w, v - value);
         }
         Some(normal.complete())
     }
 
-    /// Diameter at least [`MIN_WIDTH_PX`], blur between it and the profile's half width (at
-    /// least [`MIN_WIDTH_PX`], so the clamp cannot panic).
+    /// Diameter at least [`MIN_WIDTH_PX`] and within the bounds, blur between it and the
+    /// profile's half width (at least [`MIN_WIDTH_PX`], so the clamp cannot panic).
     fn constrain(&self, _: &Params, trial: &mut Params) {
-        trial[4] = trial[4].max(MIN_WIDTH_PX);
-        trial[5] = trial[5].clamp(MIN_WIDTH_PX, self.0.half_width.max(MIN_WIDTH_PX));
+        self.constrain_diameter(trial);
+        trial[5] = trial[5].clamp(MIN_WIDTH_PX, self.binned.half_width.max(MIN_WIDTH_PX));
     }
 }
 
@@ -300,7 +332,7 @@ mod tests {
     fn an_exact_blurred_box_is_recovered() {
         let truth = Params::from([3.0, 100.0, 2.0, 0.4, 6.0, 0.9]);
         let binned = Binned::sampled(12.0, BIN_PX, 4, |s| model(s, &truth).0);
-        let section = fit_binned(&binned).unwrap();
+        let section = fit_binned(&binned, None).unwrap();
         assert!((section.diameter_px - 6.0).abs() < 1e-3, "{section:?}");
         assert!((section.contrast - 100.0).abs() < 1e-2, "{section:?}");
         assert!((section.shading - 2.0).abs() < 1e-3, "{section:?}");
@@ -317,7 +349,7 @@ mod tests {
         for half_width in [0.1, f32::NAN] {
             let mut binned = Binned::sampled(6.0, BIN_PX, 1, |s| model(s, &truth).0);
             binned.half_width = half_width;
-            let _ = fit_binned(&binned);
+            let _ = fit_binned(&binned, None);
         }
     }
 }

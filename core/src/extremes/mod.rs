@@ -18,7 +18,7 @@ use crate::point::ImagePoint;
 use crate::segment::Target;
 use crate::segment::background::Background;
 use axial_profile::WidthProfile;
-use cross_profile::{CrossSection, Stretch};
+use cross_profile::{CrossSection, DiameterBounds, Stretch};
 
 /// The silhouette stage's tunables.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -51,6 +51,9 @@ pub struct SilhouetteConfig {
     /// ... at least this many times the other end's marks its end as the tail
     /// ([`orientation::plume_at_high`]).
     pub plume_dominance: f32,
+    /// Where the body's diameter is expected (from the range), the cross-sections' fitted
+    /// diameter stays within this factor of it either way.
+    pub diameter_tolerance: f32,
 }
 
 impl SilhouetteConfig {
@@ -66,6 +69,7 @@ impl SilhouetteConfig {
         min_nose_evidence: 0.002,
         min_plume_area: 0.25,
         plume_dominance: 4.0,
+        diameter_tolerance: 1.3,
     };
 }
 
@@ -167,6 +171,16 @@ pub struct Silhouette {
     pub plume_at_tail: bool,
 }
 
+/// What the silhouette stage knows of the body before it looks.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Prior {
+    /// The nose direction of recent frames (used only when the shape itself does not tell nose
+    /// from tail).
+    pub nose_dir: Option<ImagePoint>,
+    /// The body's diameter expected from the range, px.
+    pub diameter_px: Option<f32>,
+}
+
 /// Why the silhouette could not be measured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -177,16 +191,21 @@ pub enum ExtremesError {
     NoEnds,
 }
 
-/// Measures the silhouette of `target`. `prior_dir` is the nose direction of recent frames, used
-/// only when the shape itself does not tell nose from tail.
+/// Measures the silhouette of `target`, with what is known of it beforehand (`prior`): the
+/// expected diameter bounds the cross-sections' ([`SilhouetteConfig::diameter_tolerance`]).
 pub fn measure(
     chip: &ChipView,
     background: &Background,
     target: &Target,
     model: &ProjectileModel,
-    prior_dir: Option<ImagePoint>,
+    prior: &Prior,
     config: &SilhouetteConfig,
 ) -> Result<Silhouette, ExtremesError> {
+    let prior_dir = prior.nose_dir;
+    let bounds = prior.diameter_px.map(|d| DiameterBounds {
+        min_px: d / config.diameter_tolerance,
+        max_px: d * config.diameter_tolerance,
+    });
     let shape = &target.shape;
     let half_length = config.half_length_sds * shape.major_sd;
     let half_width = config.section_reach_sds * shape.minor_sd + config.section_reach_px;
@@ -198,6 +217,7 @@ pub fn measure(
             target.polarity,
             Stretch { t0, t1 },
             half_width,
+            bounds,
         )
     };
     let back = fit(-0.5 * half_length, 0.0);

@@ -585,6 +585,7 @@ impl<
                 t1: reach,
             },
             2.0 * expected.diameter_px + 2.0,
+            None,
         )?;
         let width = section.diameter_px;
         let tolerance = &config.body_size;

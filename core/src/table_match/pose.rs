@@ -224,7 +224,7 @@ fn cylinder_section(
         half_width,
         config.section_bin_px,
     );
-    let start = cross_profile::fit_binned(&binned).ok_or(MatchError::NoSection)?;
+    let start = cross_profile::fit_binned(&binned, None).ok_or(MatchError::NoSection)?;
     let mut section = section::fit(&binned, &start).ok_or(MatchError::NoSection)?;
     section.diameter_px = model
         .full_diameter(section.diameter_px, s0, s1)

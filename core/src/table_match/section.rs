@@ -206,7 +206,7 @@ mod tests {
         // Background 2, a strongly shaded body of diameter 7 px, blur 0.8 px, 0.3 px off axis.
         let truth = Params::from([2.0, 20.0, 30.0, 80.0, 0.3, 3.5, 0.8]);
         let binned = Binned::sampled(12.0, 0.25, 4, |s| slices.model(s, &truth).0);
-        let start = cross_profile::fit_binned(&binned).unwrap();
+        let start = cross_profile::fit_binned(&binned, None).unwrap();
         assert!((start.diameter_px - 7.0).abs() > 0.5, "{start:?}");
         let section = fit(&binned, &start).unwrap();
         assert!(
