@@ -24,7 +24,7 @@ use crate::point::ImagePoint;
 use crate::pose::Pose;
 use crate::range_filter::{FilterStep, ImageScale};
 use crate::segment::{
-    Expectation, ExpectedBody, SegmentError, Segmenter, Target, TrackGate, TrackUse,
+    Expectation, ExpectedBody, Proportions, SegmentError, Segmenter, Target, TrackGate, TrackUse,
 };
 #[cfg(feature = "shape-guided")]
 use crate::table_match::guided_loop::LoopOutcome;
@@ -258,6 +258,10 @@ impl<
                 &Expectation {
                     size: expected,
                     gate,
+                    proportions: Some(Proportions {
+                        span_diameters: self.model.max_radius_m() / self.model.radius_m(),
+                        length_diameters: self.model.length_m / self.model.diameter_m,
+                    }),
                 },
             )
             .inspect_err(|e| {

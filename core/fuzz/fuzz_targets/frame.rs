@@ -67,7 +67,7 @@ enum ConfigSpec {
         sky_exclusion: [f32; 5],
         /// The body size tolerance (min width, max width, max length, margin), the faint box
         /// in diameters and its threshold, the width, polarity and track weights.
-        body: [f32; 9],
+        body: [f32; 12],
         /// The track's gate (px, length fraction, axis deg) and its longest age, s.
         track: [f32; 4],
         ignore_range: bool,
@@ -212,6 +212,7 @@ fn config(spec: &ConfigSpec) -> Config {
                 width_weight: b[6],
                 polarity_weight: b[7],
                 track_weight: b[8],
+                unknown_range_diameters_px: [b[9], b[10], b[11]],
                 bar: bar.map(|a| BarConfig {
                     block_diameters: a[0],
                     length_fraction: a[1],

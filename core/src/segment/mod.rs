@@ -28,7 +28,7 @@ pub use gate::{TrackGate, TrackUse};
 use label::{LabelError, Labeler, Moments, Rect};
 pub use select::UNIFORM_BAR_HALF_SDS;
 use select::{Candidate, Selection, Shape};
-pub use select::{ExpectedBody, SizeTolerance};
+pub use select::{ExpectedBody, Proportions, SizeTolerance};
 
 /// The detection stage's tunables.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -85,6 +85,8 @@ pub struct DetectConfig {
     pub track_weight: f32,
     /// Where the body's size is expected, the bar search at its scale ([`bar`]); None: off.
     pub bar: Option<BarConfig>,
+    /// Where no range is known, the body diameters the bar search tries, px.
+    pub unknown_range_diameters_px: [f32; UNKNOWN_SCALES],
     /// The sky measured along the detected body where the tiles do not follow it
     /// ([`corridor`]); None: the tiles' everywhere.
     pub corridor: Option<CorridorConfig>,
@@ -118,6 +120,7 @@ impl DetectConfig {
         polarity_weight: 2.0,
         track_weight: 1.0,
         bar: Some(BarConfig::DEFAULT),
+        unknown_range_diameters_px: [4.0, 7.0, 12.0],
         corridor: Some(CorridorConfig::DEFAULT),
     };
 }
@@ -135,6 +138,8 @@ pub struct Expectation {
     pub size: Option<ExpectedBody>,
     /// Where the track of recent frames expects it.
     pub gate: Option<TrackGate>,
+    /// Its shape in diameters (the model's), for the sizes tried where no range is known.
+    pub proportions: Option<Proportions>,
 }
 
 impl Expectation {
@@ -142,6 +147,7 @@ impl Expectation {
     pub const NONE: Expectation = Expectation {
         size: None,
         gate: None,
+        proportions: None,
     };
 }
 
@@ -484,55 +490,60 @@ impl<
         expect: &Expectation,
         target: Result<Target, SegmentError>,
     ) -> Result<Target, SegmentError> {
-        let (Some(expected), Some(bar_config), Some(polarity)) =
-            (expect.size, config.bar, config.polarity)
-        else {
+        let (Some(bar_config), Some(polarity)) = (config.bar, config.polarity) else {
             return target;
         };
-        let sigma = self.background.sigma();
-        let longest = config.body_size.max_length * expected.length_px + config.body_size.margin_px;
-        if !self.bars.prepare(
-            chip,
-            sigma,
-            polarity.sign(),
-            &expected,
-            longest,
-            &bar_config,
-        ) {
-            return target;
+        // The body's size: the expected one, or, where no range is known, a few tried (not
+        // where a candidate reached the chip's edge: with no size to judge by, whatever is
+        // found beside a cut body or a structure as large as the chip is not trusted).
+        let mut sizes: heapless::Vec<ExpectedBody, UNKNOWN_SCALES> = heapless::Vec::new();
+        match (expect.size, expect.proportions) {
+            (Some(size), _) => sizes.extend([size]),
+            (None, _) if matches!(target, Err(SegmentError::AtEdge)) => return target,
+            (None, Some(proportions)) => sizes.extend(
+                config
+                    .unknown_range_diameters_px
+                    .iter()
+                    .map(|d| proportions.at(*d)),
+            ),
+            (None, None) => return target,
         }
-        // The component measured as a bar (None: not of the body's polarity).
-        let own = target.as_ref().ok().and_then(|t| {
-            (t.polarity == polarity)
-                .then(|| self.bars.measure(t.shape.centre, t.shape.axis, &bar_config))
-        });
-        // A component of the body's polarity and high contrast is the body, unless as a bar it
-        // runs into the chip's edge (a piece of terrain): no search.
-        let strong = target.as_ref().is_ok_and(|t| {
-            libm::fabsf(t.moments.mean_residual()) >= bar_config.strong_sigma * sigma
-        });
-        if strong && own.is_some_and(|o| o != Err(BarRefusal::AtEdge)) {
-            return target;
-        }
-        let own = own.and_then(Result::ok);
-        let mut bars: heapless::Vec<Bar, MAX_BARS> = heapless::Vec::new();
-        self.bars.search(&bar_config, &mut bars);
-        let judging = Judging {
+        let frame = Judging {
             config,
             bar_config: &bar_config,
             polarity,
             aim,
             diag: libm::hypotf(chip.width() as f32, chip.height() as f32),
             gate: expect.gate.as_ref(),
-            expected: &expected,
+            expected: &ExpectedBody {
+                diameter_px: 0.0,
+                span_px: 0.0,
+                length_px: 0.0,
+            },
         };
-        let score = |bar: &Bar| self.bar_score(chip, bar, &judging);
-        let own_score = own.as_ref().and_then(&score);
-        let best = bars
-            .iter()
-            .filter_map(|b| score(b).map(|s| (s, b)))
-            .max_by(|a, b| a.0.total_cmp(&b.0));
-        let Some((best_score, bar)) = best else {
+        let mut best: Option<(f32, Bar, ExpectedBody)> = None;
+        let mut own_best: Option<f32> = None;
+        for size in &sizes {
+            let judging = Judging {
+                expected: size,
+                ..frame
+            };
+            match self.judge_at_size(chip, &judging, &target) {
+                SizeVerdict::ComponentStands => return target,
+                SizeVerdict::Judged { best: b, own } => {
+                    own_best = match (own_best, own) {
+                        (Some(a), Some(b)) => Some(a.max(b)),
+                        (a, b) => a.or(b),
+                    };
+                    if let Some((score, bar)) = b
+                        && best.as_ref().is_none_or(|(s, _, _)| score > *s)
+                    {
+                        best = Some((score, bar, *size));
+                    }
+                }
+            }
+        }
+        let Some((best_score, bar, size)) = best else {
             return target;
         };
         // The component stands where it lies on the winning bar (its mask is the finer one),
@@ -544,14 +555,59 @@ impl<
             };
             let (along, across) = line.local(t.shape.centre.x, t.shape.centre.y);
             libm::fabsf(t.shape.axis.dot(bar.dir)) >= bar::PARALLEL_COS
-                && libm::fabsf(across) <= expected.diameter_px
+                && libm::fabsf(across) <= size.diameter_px
                 && libm::fabsf(along) <= bar.half_length_px
         });
-        if on_bar || own_score.is_some_and(|s| s >= best_score) {
+        if on_bar || own_best.is_some_and(|s| s >= best_score) {
             return target;
         }
         let components = target.map_or(0, |t| t.components);
-        Ok(self.paint_bar(chip, bar, expected.diameter_px, polarity, components))
+        Ok(self.paint_bar(chip, &bar, size.diameter_px, polarity, components))
+    }
+
+    /// The bar search for a body of `judging.expected`'s size: the component `target` stands
+    /// where it is of the body's polarity and high contrast and, as a bar, clear of the chip's
+    /// edge (a piece of terrain is not); else the best bar's score and the component's own.
+    fn judge_at_size(
+        &mut self,
+        chip: &ChipView,
+        judging: &Judging,
+        target: &Result<Target, SegmentError>,
+    ) -> SizeVerdict {
+        let (config, bar_config, expected) = (judging.config, judging.bar_config, judging.expected);
+        let sigma = self.background.sigma();
+        let longest = config.body_size.max_length * expected.length_px + config.body_size.margin_px;
+        let sign = judging.polarity.sign();
+        if !self
+            .bars
+            .prepare(chip, sigma, sign, expected, longest, bar_config)
+        {
+            return SizeVerdict::Judged {
+                best: None,
+                own: None,
+            };
+        }
+        // The component measured as a bar (None: not of the body's polarity).
+        let own = target.as_ref().ok().and_then(|t| {
+            (t.polarity == judging.polarity)
+                .then(|| self.bars.measure(t.shape.centre, t.shape.axis, bar_config))
+        });
+        let strong = target.as_ref().is_ok_and(|t| {
+            libm::fabsf(t.moments.mean_residual()) >= bar_config.strong_sigma * sigma
+        });
+        if strong && own.is_some_and(|o| o != Err(BarRefusal::AtEdge)) {
+            return SizeVerdict::ComponentStands;
+        }
+        let mut bars: heapless::Vec<Bar, MAX_BARS> = heapless::Vec::new();
+        self.bars.search(bar_config, &mut bars);
+        let score = |bar: &Bar| self.bar_score(chip, bar, judging);
+        SizeVerdict::Judged {
+            best: bars
+                .iter()
+                .filter_map(|b| score(b).map(|s| (s, *b)))
+                .max_by(|a, b| a.0.total_cmp(&b.0)),
+            own: own.and_then(Result::ok).as_ref().and_then(score),
+        }
     }
 
     /// The selection score of `bar` as the body ([`select`]'s terms: its significance, its
@@ -816,6 +872,20 @@ fn clamped_span(centre: f32, reach: f32, len: usize) -> (usize, usize) {
     (lo.min(hi), hi)
 }
 
+/// What the bar search at one size says of the component target ([`Segmenter::judge_at_size`]).
+enum SizeVerdict {
+    /// It is the body: of its polarity, high contrast, clear of the edge.
+    ComponentStands,
+    /// The best bar's score and the bar, and the component's own score as a bar.
+    Judged {
+        best: Option<(f32, Bar)>,
+        own: Option<f32>,
+    },
+}
+
+/// Sizes of the body the bar search tries where no range is known.
+const UNKNOWN_SCALES: usize = 3;
+
 /// What a frame's bars are judged with ([`Segmenter::bar_score`]).
 #[derive(Clone, Copy)]
 struct Judging<'a> {
@@ -905,7 +975,7 @@ mod tests {
                 aim,
                 &Expectation {
                     size: Some(expected),
-                    gate: None,
+                    ..Expectation::NONE
                 },
             )
             .unwrap();

@@ -72,6 +72,27 @@ pub struct ExpectedBody {
     pub length_px: f32,
 }
 
+/// The body's shape in diameters: its size in the chip at any scale.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Proportions {
+    /// Largest width, fins included, in body diameters.
+    pub span_diameters: f32,
+    /// Overall length, in body diameters.
+    pub length_diameters: f32,
+}
+
+impl Proportions {
+    /// The body's size in the chip where its diameter is `diameter_px`.
+    pub fn at(&self, diameter_px: f32) -> ExpectedBody {
+        ExpectedBody {
+            diameter_px,
+            span_px: self.span_diameters * diameter_px,
+            length_px: self.length_diameters * diameter_px,
+        }
+    }
+}
+
 /// How far a candidate's size may stray from the expected body's and still be it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
