@@ -161,6 +161,11 @@ impl Background {
         max_disagreement: f32,
     ) -> bool {
         self.corridor = None;
+        // The plain flank means first: where even they agree with the tiles, nothing to do.
+        let screened = Corridor::screen(chip, shape, |x, y| self.tiles_at(x, y));
+        if screened.is_none_or(|d| d <= max_disagreement) {
+            return false;
+        }
         let Some(corridor) = Corridor::measure(chip, shape) else {
             return false;
         };

@@ -109,19 +109,7 @@ impl Corridor {
     /// Measures the corridor of `shape` in `chip`; None where it is degenerate or a flank of a
     /// bin has no pixel in the chip.
     pub fn measure(chip: &ChipView, shape: &CorridorShape) -> Option<Corridor> {
-        let sizes = [shape.half_length, shape.inner, shape.outer, shape.bin_px];
-        if !sizes.iter().all(|v| v.is_finite() && *v > 0.0) || shape.outer <= shape.inner {
-            return None;
-        }
-        let bin_px = shape
-            .bin_px
-            .max(2.0 * shape.half_length / CORRIDOR_BINS as f32);
-        let bins = ((2.0 * shape.half_length / bin_px) as usize).clamp(1, CORRIDOR_BINS);
-        let shape = CorridorShape {
-            bin_px,
-            half_length: 0.5 * bins as f32 * bin_px,
-            ..*shape
-        };
+        let (shape, bins) = binned(shape)?;
         let mut corridor = Corridor {
             shape,
             bins,
@@ -129,14 +117,85 @@ impl Corridor {
             plus: [0.0; CORRIDOR_BINS],
         };
         for i in 0..bins {
-            let t0 = -shape.half_length + i as f32 * bin_px;
-            let minus = flank_level(chip, &shape, (t0, t0 + bin_px), -1.0)?;
-            let plus = flank_level(chip, &shape, (t0, t0 + bin_px), 1.0)?;
+            let t0 = -shape.half_length + i as f32 * shape.bin_px;
+            let minus = flank_level(chip, &shape, (t0, t0 + shape.bin_px), -1.0)?;
+            let plus = flank_level(chip, &shape, (t0, t0 + shape.bin_px), 1.0)?;
             if let (Some(m), Some(p)) = (corridor.minus.get_mut(i), corridor.plus.get_mut(i)) {
                 (*m, *p) = (minus, plus);
             }
         }
         Some(corridor)
+    }
+
+    /// A quick look before [`Corridor::measure`]: how far the plain means of the flanks' pixels
+    /// per bin lie from `tiles`, the root mean square over bins and flanks (grey levels; None
+    /// where the shape is degenerate). One pass over every other row and column of the
+    /// corridor, no sorting: on a clean sky it is small and the corridor need not be measured.
+    pub fn screen(
+        chip: &ChipView,
+        shape: &CorridorShape,
+        tiles: impl Fn(f32, f32) -> f32,
+    ) -> Option<f32> {
+        let (shape, bins) = binned(shape)?;
+        let mut sums = [[0.0f32; 2]; CORRIDOR_BINS];
+        let mut counts = [[0u32; 2]; CORRIDOR_BINS];
+        let axis = &shape.axis;
+        let reach = shape.half_length + shape.outer + 1.0;
+        let (cx, cy) = (axis.centre.x, axis.centre.y);
+        let y_lo = (cy - reach).max(0.0) as usize;
+        let y_hi = ((cy + reach).max(0.0) as usize + 1).min(chip.height());
+        let x_lo = (cx - reach).max(0.0) as usize;
+        let x_hi = ((cx + reach).max(0.0) as usize + 1).min(chip.width());
+        let half = shape.half_length;
+        // Every other row and column: a quarter of the pixels is plenty for plain means.
+        for y in (y_lo..y_hi).step_by(2) {
+            let (a, b) = row_span(
+                axis.centre,
+                axis.dir,
+                y,
+                (-half, half),
+                shape.outer,
+                (x_lo, x_hi),
+            );
+            chip.for_each_in_span(y, a, b, |x, v| {
+                if x % 2 == 1 {
+                    return;
+                }
+                let (t, across) = axis.local(x as f32, y as f32);
+                let side = usize::from(across > 0.0);
+                let distance = libm::fabsf(across);
+                if t < -half || t >= half || distance < shape.inner || distance > shape.outer {
+                    return;
+                }
+                let bin = ((t + half) / shape.bin_px) as usize;
+                if let (Some(s), Some(n)) = (
+                    sums.get_mut(bin).and_then(|s| s.get_mut(side)),
+                    counts.get_mut(bin).and_then(|n| n.get_mut(side)),
+                ) {
+                    *s += f32::from(v);
+                    *n += 1;
+                }
+            });
+        }
+        let mid = 0.5 * (shape.inner + shape.outer);
+        let normal = axis.dir.perpendicular();
+        let (mut sum, mut n) = (0.0f32, 0u32);
+        for (i, (s, c)) in sums.iter().zip(&counts).take(bins).enumerate() {
+            let centre = axis.point(-half + (i as f32 + 0.5) * shape.bin_px);
+            for (side, sign) in [(0usize, -1.0f32), (1, 1.0)] {
+                let (Some(total), Some(&count)) = (s.get(side), c.get(side)) else {
+                    continue;
+                };
+                if count == 0 {
+                    continue;
+                }
+                let p = centre + normal * (sign * mid);
+                let d = total / count as f32 - tiles(p.x, p.y);
+                sum += d * d;
+                n += 1;
+            }
+        }
+        Some(libm::sqrtf(sum / n.max(1) as f32))
     }
 
     /// Where the corridor lies.
@@ -187,6 +246,25 @@ impl Corridor {
     }
 }
 
+/// `shape` with its bins fitted to its length (at most [`CORRIDOR_BINS`], at least one), and
+/// their number; None where it is degenerate.
+fn binned(shape: &CorridorShape) -> Option<(CorridorShape, usize)> {
+    let sizes = [shape.half_length, shape.inner, shape.outer, shape.bin_px];
+    if !sizes.iter().all(|v| v.is_finite() && *v > 0.0) || shape.outer <= shape.inner {
+        return None;
+    }
+    let bin_px = shape
+        .bin_px
+        .max(2.0 * shape.half_length / CORRIDOR_BINS as f32);
+    let bins = ((2.0 * shape.half_length / bin_px) as usize).clamp(1, CORRIDOR_BINS);
+    let shape = CorridorShape {
+        bin_px,
+        half_length: 0.5 * bins as f32 * bin_px,
+        ..*shape
+    };
+    Some((shape, bins))
+}
+
 /// The mean of the middle half (a trimmed mean, robust to a filament or a bright spot, and not
 /// quantized as a median of integer samples is) of the chip's pixels of the flank on side `side` (-1 or +1 across the axis) of the
 /// stretch `along` (px from the centre) of `shape` (at most [`MAX_SAMPLES`] of them); None where
@@ -225,9 +303,15 @@ fn flank_level(
     if values.is_empty() {
         return None;
     }
-    values.sort_unstable_by(f32::total_cmp);
+    // The lowest and the highest quarter partitioned off (no sort: linear time).
     let quarter = values.len() / 4;
-    let middle = values.get(quarter..values.len() - quarter)?;
+    values.select_nth_unstable_by(quarter, f32::total_cmp);
+    let upper = values.get_mut(quarter..)?;
+    let keep = upper.len() - quarter;
+    if quarter > 0 {
+        upper.select_nth_unstable_by(keep, f32::total_cmp);
+    }
+    let middle = upper.get(..keep)?;
     let mean = middle.iter().sum::<f32>() / middle.len().max(1) as f32;
     Some(mean)
 }
