@@ -133,6 +133,7 @@ mod tests {
             parts: 1,
             components: 1,
             track: crate::segment::TrackUse::Fresh,
+            found_by: crate::segment::FoundBy::Components,
         }
     }
 

@@ -44,8 +44,8 @@ const CHIP_SIDE: usize = 256;
 
 /// The bar search's grid: none. Its 48 KiB (three 4096-block grids) do not fit beside the
 /// pipeline in 192 KiB yet (docs/firmware.md), so detection in clutter is the host's until the
-/// stages share their working memory. Where the components find a body of high contrast, the
-/// results are the same.
+/// stages share their working memory. Where the components find a body of the body's polarity
+/// and high contrast, clear of the chip's edge, the host does not search either.
 const BAR_CELLS: usize = 0;
 
 /// The core's pipeline with masks for chips up to [`CHIP_SIDE`] (a larger chip is a capacity

@@ -273,12 +273,12 @@ struct BoxFit<'b> {
 impl BoxFit<'_> {
     /// Diameter at least [`MIN_WIDTH_PX`] and within the bounds (where they are a range).
     fn constrain_diameter(&self, p: &mut Params) {
-        p[4] = p[4].max(MIN_WIDTH_PX);
         if let Some(b) = self.bounds
             && b.min_px <= b.max_px
         {
             p[4] = p[4].clamp(b.min_px, b.max_px);
         }
+        p[4] = p[4].max(MIN_WIDTH_PX);
     }
 }
 

@@ -35,7 +35,7 @@ const MAX_PEAKS: usize = 24;
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct BarConfig {
-    /// Block side, in body diameters (at least 1 px; larger where the chip has more blocks than
+    /// Block side, in body diameters (1 to 64 px; larger where the chip has more blocks than
     /// the search's grid holds).
     pub block_diameters: f32,
     /// Integration length, as a fraction of the body's broadside length ...
@@ -103,9 +103,12 @@ pub struct Bar {
     pub dir: ImagePoint,
     /// Half its length, px (the integration length's half until measured).
     pub half_length_px: f32,
-    /// Its contrast against the flank with less, grey levels (the body's polarity positive).
+    /// Its contrast against the mean of its two flanks, grey levels (the body's polarity
+    /// positive; a search's peak: against the flank with less).
     pub contrast: f32,
-    /// Its significance: the contrast integrated over its length, in noise sigmas.
+    /// Its significance: its mean contrast over its length in units of the contrast's own
+    /// scatter along it (at least the noise's), times the square root of the samples (a
+    /// search's peak: its response in noise sigmas, less where the flanks are textured).
     pub significance: f32,
     /// The strongest contrast of the other polarity just beyond either end, in noise sigmas of
     /// one block's contrast: a plume at the tail.
@@ -125,6 +128,8 @@ pub enum BarRefusal {
     /// It is shorter than [`BarConfig::min_bar_diameters`] (a compact spot, or a body seen
     /// nearly end-on, which the components find).
     TooShort,
+    /// No chip is prepared ([`BarSearch::prepare`] was not called, or refused the size).
+    NotPrepared,
 }
 
 /// The search's block grid and its buffers, `CELLS` blocks at most.
@@ -230,7 +235,7 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         dir: ImagePoint,
         config: &BarConfig,
     ) -> Result<Bar, BarRefusal> {
-        let scale = self.scale.as_ref().ok_or(BarRefusal::NoContrast)?;
+        let scale = self.scale.as_ref().ok_or(BarRefusal::NotPrepared)?;
         let (centre, dir) = self.refine(centre, dir, scale);
         self.walk(centre, dir, scale, config)
     }
@@ -245,15 +250,21 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         longest_px: f32,
         config: &BarConfig,
     ) -> Option<Scale> {
-        let scale = scale_of(expected, longest_px, config);
+        let (width, height) = (chip.width(), chip.height());
+        let diagonal = libm::hypotf(width as f32, height as f32);
+        let mut scale = scale_of(expected, longest_px, config);
         let sizes = [scale.diameter_px, scale.length_px, scale.longest_px];
-        if !sizes.iter().all(|v| v.is_finite() && *v > 0.0) || !sigma.is_finite() {
+        // A body of no size, or one that cannot be seen whole in the chip, is not searched for.
+        let seen = scale.diameter_px <= diagonal && scale.length_px <= diagonal;
+        if !sizes.iter().all(|v| v.is_finite() && *v > 0.0) || !sigma.is_finite() || !seen {
             return None;
         }
-        let (width, height) = (chip.width(), chip.height());
         if CELLS < 9 {
             return None;
         }
+        // Nothing runs on further than across the chip (the walks' step counts stay small).
+        scale.longest_px = scale.longest_px.min(2.0 * diagonal);
+        scale.overhang_px = scale.overhang_px.min(diagonal);
         // At least the side that fits the chip in the grid, then up to it exactly.
         let fit = libm::sqrtf((width * height) as f32 / CELLS as f32) as usize;
         let mut side = ((config.block_diameters * scale.diameter_px) as usize).clamp(1, 64);
@@ -301,6 +312,9 @@ impl<const CELLS: usize> BarSearch<CELLS> {
     /// The blocks' value at chip point `q`, bilinear between block centres (None where a block
     /// it needs is off the grid).
     fn block_at(&self, q: ImagePoint) -> Option<f32> {
+        if !q.is_finite() {
+            return None;
+        }
         let s = self.side as f32;
         let (u, v) = (q.x / s - 0.5, q.y / s - 0.5);
         let (c, r) = (libm::floorf(u), libm::floorf(v));
@@ -394,6 +408,7 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         let (blocks, lines, scatter) = (&self.blocks, &mut self.lines, &mut self.scatter);
         let (cols, rows) = (self.cols, self.rows);
         lines.iter_mut().for_each(|l| *l = f32::NAN);
+        scatter.iter_mut().for_each(|v| *v = f32::NAN);
         let reach = libm::ceilf(libm::fabsf(slope) * n_u as f32) as isize + 1;
         for v0 in -reach..n_v as isize + reach {
             let v_at = |u: usize| v0 + libm::roundf(u as f32 * slope) as isize;
@@ -442,8 +457,12 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         for v in flank..n_v.saturating_sub(flank) {
             for u in 0..n_u {
                 let line = |v: usize| self.lines.get(index(u, v)).copied().unwrap_or(f32::NAN);
-                let response = line(v) - line(v - flank).max(line(v + flank));
-                // NaN (a line off the grid) fails the comparison.
+                let (minus, plus) = (line(v - flank), line(v + flank));
+                // Both flanks must be on the grid (NaN: a line that leaves it).
+                if minus.is_nan() || plus.is_nan() {
+                    continue;
+                }
+                let response = line(v) - minus.max(plus);
                 if response.is_nan() || response < threshold {
                     continue;
                 }
@@ -495,7 +514,8 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         let (level, ceiling) = (config.end_fraction * middle, config.end_ceiling * middle);
         let max_steps = (0.5 * scale.longest_px / step) as i32 + 2;
         // A stretch below the level shorter than this is crossed (a filament, a cloud's edge).
-        let gap = (libm::ceilf(config.max_gap_diameters * scale.diameter_px / step) as i32).max(2);
+        let gap = (libm::ceilf(config.max_gap_diameters * scale.diameter_px / step) as i32)
+            .clamp(2, max_steps.max(2));
         // Each way: half a step beyond the last step at the level before `gap` below it.
         let end = |way: f32| -> Result<f32, BarRefusal> {
             let mut last = 0;
@@ -529,7 +549,7 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         // Its contrast over the measured length, and how significant it is against the
         // contrast's own scatter along it (terrain's texture scatters more than the noise).
         let mid = 0.5 * (ahead + behind);
-        let steps = ((half_length_px / step) as usize).min(MAX_WALK_SAMPLES / 2);
+        let steps = ((half_length_px / step) as usize).min((MAX_WALK_SAMPLES - 1) / 2);
         let mut samples = [0.0f32; MAX_WALK_SAMPLES];
         let mut count = 0usize;
         for i in -(steps as i32)..=steps as i32 {
@@ -631,6 +651,10 @@ fn scale_of(expected: &ExpectedBody, longest_px: f32, config: &BarConfig) -> Sca
     }
 }
 
+/// The smallest |cosine| between two peaks' directions taken as one bar's (about 20 degrees:
+/// its neighbouring directions respond too).
+const PEAK_PARALLEL_COS: f32 = 0.94;
+
 /// The smallest |cosine| between two lines taken as parallel (about 10 degrees).
 pub const PARALLEL_COS: f32 = 0.985;
 
@@ -650,8 +674,8 @@ fn same_bar(a: &Bar, b: &Bar, diameter_px: f32) -> bool {
 fn keep_peak(peaks: &mut heapless::Vec<Bar, MAX_PEAKS>, peak: Bar, scale: &Scale) {
     let near = |b: &Bar| {
         let (dx, dy) = (peak.centre.x - b.centre.x, peak.centre.y - b.centre.y);
-        let apart = libm::sqrtf(dx * dx + dy * dy) <= 0.5 * scale.length_px;
-        apart && libm::fabsf(b.dir.dot(peak.dir)) >= 0.94
+        let close = libm::sqrtf(dx * dx + dy * dy) <= 0.5 * scale.length_px;
+        close && libm::fabsf(b.dir.dot(peak.dir)) >= PEAK_PARALLEL_COS
     };
     if let Some(i) = peaks.iter().position(near) {
         if let Some(b) = peaks.get_mut(i)
@@ -774,6 +798,36 @@ mod tests {
             matches!(band, Err(BarRefusal::AtEdge | BarRefusal::TooLong)),
             "{band:?}"
         );
+    }
+
+    /// A body that could not be seen whole in the chip (a range 1e-30 m away) is not searched
+    /// for, and nothing runs long; a bar through a short spot is too short.
+    #[test]
+    fn huge_bodies_and_short_spots_are_refused() {
+        let (data, _, _) = cluttered_chip();
+        let chip = ChipView::gray8(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        let config = BarConfig::DEFAULT;
+        let mut search: BarSearch<4096> = BarSearch::new();
+        let huge = ExpectedBody {
+            diameter_px: 1e30,
+            span_px: 2e30,
+            length_px: 1e31,
+        };
+        assert!(!search.prepare(&chip, 3.0, -1.0, &huge, 1e32, &config));
+        let mut spot = [120u8; SIDE * SIDE];
+        for y in 124..132 {
+            for x in 124..132 {
+                spot[y * SIDE + x] = 60;
+            }
+        }
+        let chip = ChipView::gray8(&spot, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        assert!(search.prepare(&chip, 3.0, -1.0, &expected(), 160.0, &config));
+        let short = search.measure(
+            ImagePoint::new(128.0, 128.0),
+            ImagePoint::new(1.0, 0.0),
+            &config,
+        );
+        assert_eq!(short, Err(BarRefusal::TooShort));
     }
 
     /// A grid too small for any chip, or a body of no size, gives no search.

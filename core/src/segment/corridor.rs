@@ -12,6 +12,7 @@
 //! contrast ([`Corridor::disagreement`]): a sky error that small does not matter, and the tiles'
 //! estimate is smoother (a body of high contrast on a clean sky keeps it).
 
+use super::clamped_span;
 use crate::chip::ChipView;
 use crate::extremes::{Axis, row_span};
 
@@ -141,11 +142,8 @@ impl Corridor {
         let mut counts = [[0u32; 2]; CORRIDOR_BINS];
         let axis = &shape.axis;
         let reach = shape.half_length + shape.outer + 1.0;
-        let (cx, cy) = (axis.centre.x, axis.centre.y);
-        let y_lo = (cy - reach).max(0.0) as usize;
-        let y_hi = ((cy + reach).max(0.0) as usize + 1).min(chip.height());
-        let x_lo = (cx - reach).max(0.0) as usize;
-        let x_hi = ((cx + reach).max(0.0) as usize + 1).min(chip.width());
+        let (y_lo, y_hi) = clamped_span(axis.centre.y, reach, chip.height());
+        let (x_lo, x_hi) = clamped_span(axis.centre.x, reach, chip.width());
         let half = shape.half_length;
         // Every other row and column: a quarter of the pixels is plenty for plain means.
         for y in (y_lo..y_hi).step_by(2) {
@@ -282,17 +280,22 @@ fn flank_level(
     let mid = 0.5 * (shape.inner + shape.outer);
     let centre = axis.point(0.5 * (t0 + t1)) + axis.dir.perpendicular() * (side * mid);
     let reach = 0.5 * (t1 - t0) + 0.5 * (shape.outer - shape.inner) + 1.0;
-    let y_lo = (centre.y - reach).max(0.0) as usize;
-    let y_hi = ((centre.y + reach).max(0.0) as usize + 1).min(chip.height());
-    let x_lo = (centre.x - reach).max(0.0) as usize;
-    let x_hi = ((centre.x + reach).max(0.0) as usize + 1).min(chip.width());
+    let (y_lo, y_hi) = clamped_span(centre.y, reach, chip.height());
+    let (x_lo, x_hi) = clamped_span(centre.x, reach, chip.width());
+    // Every `stride`-th pixel of the flank, so that a wide flank is sampled all over.
+    let area = (t1 - t0) * (shape.outer - shape.inner);
+    let stride = (libm::ceilf(area / MAX_SAMPLES as f32) as usize).max(1);
+    let mut seen = 0usize;
     for y in y_lo..y_hi {
         let (a, b) = row_span(axis.centre, axis.dir, y, along, shape.outer, (x_lo, x_hi));
         chip.for_each_in_span(y, a, b, |x, v| {
             let (t, across) = axis.local(x as f32, y as f32);
             let across = side * across;
             if t >= t0 && t < t1 && across >= shape.inner && across <= shape.outer {
-                if let Some(slot) = values.get_mut(n) {
+                seen += 1;
+                if seen % stride == 0
+                    && let Some(slot) = values.get_mut(n)
+                {
                     *slot = f32::from(v);
                     n += 1;
                 }
@@ -369,6 +372,15 @@ mod tests {
         assert!(tiles - 80.0 > 3.0, "the tiles' sky {tiles}");
         assert!(background.follow_corridor(&chip, &shape, 0.25 * 10.0));
         assert!((background.at(63.5, 64.0) - 80.0).abs() < 1.0);
+        // The labeler's rows read the same sky as single pixels do.
+        let mut row = [0.0f32; SIDE];
+        background.fill_row(64, 0, &mut row);
+        for (x, level) in row.iter().enumerate() {
+            assert!(
+                (level - background.at(x as f32, 64.0)).abs() < 1e-3,
+                "x {x}"
+            );
+        }
         assert_eq!(background.at(63.5, 10.0), tiles_far(&chip));
         // On a clean sky the tiles stay.
         let clean = [100u8; SIDE * SIDE];

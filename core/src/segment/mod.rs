@@ -231,6 +231,18 @@ pub struct Target {
     pub components: u16,
     /// How the track was used to pick it.
     pub track: TrackUse,
+    /// What found it.
+    pub found_by: FoundBy,
+}
+
+/// What found a target.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FoundBy {
+    /// The connected components of the thresholded chip (its mask is theirs).
+    Components,
+    /// The bar search at the body's scale ([`bar`]; its mask is the bar's rectangle).
+    Bar,
 }
 
 /// The detection stage and its fixed buffers: the sky model, the labeler (`MAX_RUNS` runs,
@@ -308,9 +320,11 @@ impl<
         if let Some(corridor_config) = &config.corridor {
             let shape = &target.shape;
             let width = 2.0 * UNIFORM_BAR_HALF_SDS * shape.minor_sd;
-            let (diameter, span) = expect
-                .size
-                .map_or((width, width), |e| (e.diameter_px, e.span_px));
+            // Without a range, the measured width and the model's proportions.
+            let span_diameters = expect.proportions.map_or(1.0, |p| p.span_diameters);
+            let (diameter, span) = expect.size.map_or((width, width * span_diameters), |e| {
+                (e.diameter_px, e.span_px)
+            });
             let half_length = UNIFORM_BAR_HALF_SDS * shape.major_sd;
             let corridor = corridor_config.shape(shape.line(), half_length, diameter, span);
             let contrast = libm::fabsf(target.moments.mean_residual());
@@ -337,7 +351,10 @@ impl<
         self.background.estimate(chip);
         let first = self.detect_on_sky(chip, config, aim, expect, None);
         let first = self.judge_by_bar(chip, config, aim, expect, first)?;
-        if UNIFORM_BAR_HALF_SDS * 2.0 * first.shape.minor_sd < config.sky_exclusion_min_width_px {
+        // A bar is the body's width by construction: the sky is not estimated again under it.
+        if first.found_by == FoundBy::Bar
+            || UNIFORM_BAR_HALF_SDS * 2.0 * first.shape.minor_sd < config.sky_exclusion_min_width_px
+        {
             return Ok(first);
         }
         let region = sky_exclusion(&first.shape, config);
@@ -508,25 +525,18 @@ impl<
             ),
             (None, None) => return target,
         }
-        let frame = Judging {
-            config,
-            bar_config: &bar_config,
-            polarity,
-            aim,
-            diag: libm::hypotf(chip.width() as f32, chip.height() as f32),
-            gate: expect.gate.as_ref(),
-            expected: &ExpectedBody {
-                diameter_px: 0.0,
-                span_px: 0.0,
-                length_px: 0.0,
-            },
-        };
+        let diag = libm::hypotf(chip.width() as f32, chip.height() as f32);
         let mut best: Option<(f32, Bar, ExpectedBody)> = None;
         let mut own_best: Option<f32> = None;
         for size in &sizes {
             let judging = Judging {
+                config,
+                bar_config: &bar_config,
+                polarity,
+                aim,
+                diag,
+                gate: expect.gate.as_ref(),
                 expected: size,
-                ..frame
             };
             match self.judge_at_size(chip, &judging, &target) {
                 SizeVerdict::ComponentStands => return target,
@@ -562,7 +572,15 @@ impl<
             return target;
         }
         let components = target.map_or(0, |t| t.components);
-        Ok(self.paint_bar(chip, &bar, size.diameter_px, polarity, components))
+        let gated = expect
+            .gate
+            .is_some_and(|g| g.admits_line(bar.centre, bar.dir, polarity));
+        let track = if gated {
+            TrackUse::Gated
+        } else {
+            TrackUse::Fresh
+        };
+        Ok(self.paint_bar(chip, &bar, size.diameter_px, polarity, (components, track)))
     }
 
     /// The bar search for a body of `judging.expected`'s size: the component `target` stands
@@ -665,14 +683,14 @@ impl<
     }
 
     /// Paints `bar` as a rectangle `diameter_px` wide into the mask and returns it as the
-    /// target.
+    /// target (with the chip's count of `components` and the `track`'s use).
     fn paint_bar(
         &mut self,
         chip: &ChipView,
         bar: &Bar,
         diameter_px: f32,
         polarity: BodyPolarity,
-        components: u16,
+        (components, track): (u16, TrackUse),
     ) -> Target {
         self.mask.clear();
         let class = if polarity.sign() > 0.0 { 1 } else { -1 };
@@ -709,7 +727,8 @@ impl<
             shape: Shape::of(&moments),
             parts: 1,
             components,
-            track: TrackUse::Fresh,
+            track,
+            found_by: FoundBy::Bar,
         }
     }
 
@@ -860,13 +879,14 @@ impl<
             parts: keep.len() as u8,
             components: target.components,
             track: target.track,
+            found_by: target.found_by,
         })
     }
 }
 
 /// The pixels within `reach` px of `centre` along one side of a chip `len` px long: a start and
 /// an end (exclusive).
-fn clamped_span(centre: f32, reach: f32, len: usize) -> (usize, usize) {
+pub(crate) fn clamped_span(centre: f32, reach: f32, len: usize) -> (usize, usize) {
     let lo = libm::floorf(centre - reach).max(0.0) as usize;
     let hi = (libm::ceilf(centre + reach) + 1.0).clamp(0.0, len as f32) as usize;
     (lo.min(hi), hi)
@@ -928,6 +948,7 @@ fn target_of(selection: &Selection, components: usize, track: TrackUse) -> Targe
         parts: selection.parts.len() as u8,
         components: components as u16,
         track,
+        found_by: FoundBy::Components,
     }
 }
 
