@@ -669,14 +669,11 @@ impl<
             return None;
         }
         let ratio = libm::logf(width / expected.diameter_px.max(1e-3));
-        let (dx, dy) = (bar.centre.x - aim.x, bar.centre.y - aim.y);
-        let distance = libm::sqrtf(dx * dx + dy * dy) / diag.max(1.0);
         let gated = gate.is_some_and(|g| g.admits_line(bar.centre, bar.dir, polarity));
         let plume = bar.plume_sigma >= bar_config.plume_min_sigma;
         Some(
-            libm::logf(1.0 + bar.significance)
+            select::significance_and_nearness(bar.significance, bar.centre, aim, diag)
                 - config.width_weight * ratio * ratio
-                - 4.0 * distance * distance
                 + if gated { config.track_weight } else { 0.0 }
                 + if plume { bar_config.plume_weight } else { 0.0 },
         )

@@ -149,10 +149,22 @@ fn score(c: &Candidate, sigma: f32, aim: ImagePoint, chip_diag: f32) -> f32 {
     let m = &c.moments;
     let significance = m.sum_residual.abs() / (sigma.max(1e-3) * libm::sqrtf(m.n as f32));
     let shape = Shape::of(m);
-    let (dx, dy) = (shape.centre.x - aim.x, shape.centre.y - aim.y);
+    significance_and_nearness(significance, shape.centre, aim, chip_diag)
+        + 0.5 * libm::logf(shape.elongation())
+}
+
+/// The selection's score terms of a candidate of `significance` (noise sigmas) centred at
+/// `centre`: the log of its significance, less the square of its distance from `aim` in chip
+/// diagonals (`chip_diag` px) times 4 (the tracker keeps the body near the chip's centre).
+pub fn significance_and_nearness(
+    significance: f32,
+    centre: ImagePoint,
+    aim: ImagePoint,
+    chip_diag: f32,
+) -> f32 {
+    let (dx, dy) = (centre.x - aim.x, centre.y - aim.y);
     let distance = libm::sqrtf(dx * dx + dy * dy) / chip_diag.max(1.0);
-    libm::logf(1.0 + significance) + 0.5 * libm::logf(shape.elongation())
-        - 4.0 * distance * distance
+    libm::logf(1.0 + significance) - 4.0 * distance * distance
 }
 
 /// Whether candidate `c` should be preferred over `other` as the body, by polarity.
