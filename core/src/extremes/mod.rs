@@ -52,7 +52,8 @@ pub struct SilhouetteConfig {
     /// ([`orientation::plume_at_high`]).
     pub plume_dominance: f32,
     /// Where the body's diameter is expected (from the range), the cross-sections' fitted
-    /// diameter stays within this factor of it either way.
+    /// diameter stays within this factor of the body's narrowest and widest diameter over the
+    /// middle of its length.
     pub diameter_tolerance: f32,
 }
 
@@ -171,6 +172,10 @@ pub struct Silhouette {
     pub plume_at_tail: bool,
 }
 
+/// Where along the body (fractions of its length from the tip) the cross-sections may be
+/// fitted: the middle of the mask, with room for a mask shorter than the body.
+const MIDDLE: (f32, f32) = (0.15, 0.85);
+
 /// What the silhouette stage knows of the body before it looks.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Prior {
@@ -202,9 +207,14 @@ pub fn measure(
     config: &SilhouetteConfig,
 ) -> Result<Silhouette, ExtremesError> {
     let prior_dir = prior.nose_dir;
+    // The cross-sections are fitted over the middle of the body, where a tapered body (a
+    // mortar round, a shell's ogive) is narrower than its full diameter.
+    let (narrowest, widest) =
+        model.radius_extremes_m(MIDDLE.0 * model.length_m, MIDDLE.1 * model.length_m);
+    let radius = model.radius_m();
     let bounds = prior.diameter_px.map(|d| DiameterBounds {
-        min_px: d / config.diameter_tolerance,
-        max_px: d * config.diameter_tolerance,
+        min_px: d * narrowest / radius / config.diameter_tolerance,
+        max_px: d * widest / radius * config.diameter_tolerance,
     });
     let shape = &target.shape;
     let half_length = config.half_length_sds * shape.major_sd;

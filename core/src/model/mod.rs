@@ -208,6 +208,19 @@ impl<'a> ProjectileModel<'a> {
         sum / MEAN_RADIUS_SAMPLES as f32
     }
 
+    /// The smallest and the largest body radius between `s0` and `s1` m aft of the tip (either
+    /// order), m, over the same evenly spaced samples as [`Self::mean_radius_m`].
+    pub fn radius_extremes_m(&self, s0: f32, s1: f32) -> (f32, f32) {
+        (0..MEAN_RADIUS_SAMPLES)
+            .map(|k| {
+                let f = (k as f32 + 0.5) / MEAN_RADIUS_SAMPLES as f32;
+                self.radius_at(s0 + (s1 - s0) * f)
+            })
+            .fold((f32::INFINITY, 0.0f32), |(lo, hi), r| {
+                (lo.min(r), hi.max(r))
+            })
+    }
+
     /// The full body diameter from a diameter `d` (any unit) measured over the stretch from
     /// `s0` to `s1` m aft of the tip: `d` itself inside the cylinder ([`Self::cylinder_s`]),
     /// else `d` scaled by the full radius over the stretch's mean ([`Self::mean_radius_m`]: a
