@@ -710,13 +710,8 @@ impl<
                 continue;
             };
             let x1 = (x0..x_hi).take_while(|&x| inside(x)).last().unwrap_or(x0);
-            let (mut residual, mut value) = (0.0f32, 0u64);
-            chip.for_each_in_span(y, x0, x1 + 1, |x, v| {
-                residual += f32::from(v) - self.background.at(x as f32, y as f32);
-                value += u64::from(v);
-            });
             self.mask.set_run(y, x0, x1);
-            moments.add_run(y as u16, x0 as u16, x1 as u16, residual, value);
+            self.add_mask_run(chip, &mut moments, y, x0, x1);
         }
         Target {
             polarity,
@@ -813,10 +808,81 @@ impl<
             Err(SegmentError::NoTarget) => *target,
             other => other?,
         };
+        // A faint body's recut reaches into the clutter that crosses it (filaments, cloud): a
+        // bar's is kept within the bar and the silhouette's ends.
+        let recut = match target.found_by {
+            FoundBy::Bar => self.clip_to_bar(chip, target, &recut, silhouette, f32::from(margin)),
+            FoundBy::Components => recut,
+        };
         if recut.moments.bbox.touches_edge(chip.width(), chip.height()) {
             return Err(SegmentError::AtEdge);
         }
         Ok(recut)
+    }
+
+    /// The `recut` mask of the bar target `bar` cleared outside the bar's line, `margin_px`
+    /// beyond half its width (its painted rectangle's) across it and beyond the farther of its
+    /// ends and the silhouette's along it, and its statistics counted again (the recut where
+    /// nothing is left).
+    fn clip_to_bar(
+        &mut self,
+        chip: &ChipView,
+        bar: &Target,
+        recut: &Target,
+        silhouette: &Silhouette,
+        margin_px: f32,
+    ) -> Target {
+        let line = bar.shape.line();
+        let ends = [silhouette.nose_t, silhouette.tail_t].map(|t| {
+            let p = silhouette.axis.point(t);
+            libm::fabsf(line.local(p.x, p.y).0)
+        });
+        let half_length = ends
+            .iter()
+            .fold(UNIFORM_BAR_HALF_SDS * bar.shape.major_sd, |m, e| m.max(*e))
+            + margin_px;
+        let half_width = UNIFORM_BAR_HALF_SDS * bar.shape.minor_sd + margin_px;
+        let mut moments = Moments::empty(recut.moments.class);
+        let b = recut.moments.bbox;
+        for y in usize::from(b.y0)..usize::from(b.y1) {
+            let mut run: Option<usize> = None;
+            for x in usize::from(b.x0)..=usize::from(b.x1) {
+                let (along, across) = line.local(x as f32, y as f32);
+                let inside = x < usize::from(b.x1)
+                    && libm::fabsf(along) <= half_length
+                    && libm::fabsf(across) <= half_width;
+                let kept = inside && self.mask.get(x, y);
+                if !inside {
+                    self.mask.set(x, y, false);
+                }
+                match (kept, run) {
+                    (true, None) => run = Some(x),
+                    (false, Some(x0)) => {
+                        self.add_mask_run(chip, &mut moments, y, x0, x - 1);
+                        run = None;
+                    }
+                    _ => {}
+                }
+            }
+        }
+        if moments.n == 0 {
+            return *recut;
+        }
+        Target {
+            moments,
+            shape: Shape::of(&moments),
+            ..*recut
+        }
+    }
+
+    /// Adds the run `x0..=x1` of row `y` to `moments`, with its residuals against the sky.
+    fn add_mask_run(&self, chip: &ChipView, moments: &mut Moments, y: usize, x0: usize, x1: usize) {
+        let (mut residual, mut value) = (0.0f32, 0u64);
+        chip.for_each_in_span(y, x0, x1 + 1, |x, v| {
+            residual += f32::from(v) - self.background.at(x as f32, y as f32);
+            value += u64::from(v);
+        });
+        moments.add_run(y as u16, x0 as u16, x1 as u16, residual, value);
     }
 
     /// Recuts the target's mask where its contrast (of the target's polarity) reaches `level`
