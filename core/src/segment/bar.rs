@@ -9,14 +9,19 @@
 //!    which raises a faint body's signal-to-noise by the block's side.
 //! 2. For each of `K` directions (a step of about a diameter over the integration length), every
 //!    block's sum along a digital line of the integration length is compared with the sums along
-//!    the two parallel lines a diameter and a gap to either side. The response is the smaller of
-//!    the two contrasts in noise sigmas: an edge darker on one side only (a cloud band's, the
-//!    terrain's) gives nothing, and a filament narrower than the body a fraction of its response.
-//!    Sliding sums make this a few operations per block and direction.
+//!    the two parallel lines [`BarConfig::flank_diameters`] to either side (both on the grid).
+//!    The response is the smaller of the two contrasts in noise sigmas: an edge darker on one
+//!    side only (a cloud band's, the terrain's) gives nothing, and a filament narrower than the
+//!    body a fraction of its response. Sliding sums make this a few operations per block and
+//!    direction. Responses are ranked against the scatter of the blocks along the smoother
+//!    flank line too: terrain's or a cloud's texture makes strong responses, the sky beside a
+//!    body is even.
 //! 3. The strongest responses, apart, are the candidate bars ([`BarSearch::search`]). Each is
-//!    measured ([`BarSearch::measure`]): walked along its axis both ways until its contrast falls
-//!    below a fraction of its middle's, which gives its ends and length, so that a band or
-//!    filament longer than the body can be refused.
+//!    refined in angle and offset and measured ([`BarSearch::measure`]): walked along its axis
+//!    both ways until its contrast stays below a fraction of its middle's (or far above it:
+//!    terrain) for longer than a filament is wide, which gives its ends and length, so that a
+//!    band or filament longer than the body, or one that runs into the chip's edge, is refused;
+//!    and the glow of a plume of the other polarity just beyond an end is measured.
 
 use super::select::ExpectedBody;
 use crate::chip::ChipView;
