@@ -199,23 +199,23 @@ impl<'a> ProjectileModel<'a> {
     /// spaced samples: a cross-section measured over a stretch where the radius varies has
     /// about twice this as its diameter.
     pub fn mean_radius_m(&self, s0: f32, s1: f32) -> f32 {
-        let sum: f32 = (0..MEAN_RADIUS_SAMPLES)
-            .map(|k| {
-                let f = (k as f32 + 0.5) / MEAN_RADIUS_SAMPLES as f32;
-                self.radius_at(s0 + (s1 - s0) * f)
-            })
-            .sum();
+        let sum: f32 = self.radius_samples(s0, s1).sum();
         sum / MEAN_RADIUS_SAMPLES as f32
+    }
+
+    /// The body radius at [`MEAN_RADIUS_SAMPLES`] evenly spaced points between `s0` and `s1`
+    /// m aft of the tip (the middles of equal steps), m.
+    fn radius_samples(&self, s0: f32, s1: f32) -> impl Iterator<Item = f32> + '_ {
+        (0..MEAN_RADIUS_SAMPLES).map(move |k| {
+            let f = (k as f32 + 0.5) / MEAN_RADIUS_SAMPLES as f32;
+            self.radius_at(s0 + (s1 - s0) * f)
+        })
     }
 
     /// The smallest and the largest body radius between `s0` and `s1` m aft of the tip (either
     /// order), m, over the same evenly spaced samples as [`Self::mean_radius_m`].
     pub fn radius_extremes_m(&self, s0: f32, s1: f32) -> (f32, f32) {
-        (0..MEAN_RADIUS_SAMPLES)
-            .map(|k| {
-                let f = (k as f32 + 0.5) / MEAN_RADIUS_SAMPLES as f32;
-                self.radius_at(s0 + (s1 - s0) * f)
-            })
+        self.radius_samples(s0, s1)
             .fold((f32::INFINITY, 0.0f32), |(lo, hi), r| {
                 (lo.min(r), hi.max(r))
             })

@@ -26,6 +26,14 @@ pub struct Region {
     pub half_width: f32,
 }
 
+impl Region {
+    /// Whether the chip point (`x`, `y`) lies in the region.
+    pub fn contains(&self, x: f32, y: f32) -> bool {
+        let (along, across) = self.axis.local(x, y);
+        libm::fabsf(along) <= self.half_length && libm::fabsf(across) <= self.half_width
+    }
+}
+
 /// Background levels per tile and the chip's noise level.
 #[derive(Clone)]
 pub struct Background {
@@ -192,10 +200,7 @@ impl Background {
         };
         let (tx0, tx1) = tiles_of(region.axis.centre.x, self.tiles_x);
         let (ty0, ty1) = tiles_of(region.axis.centre.y, self.tiles_y);
-        let outside = |x: usize, y: usize| {
-            let (along, across) = region.axis.local(x as f32, y as f32);
-            libm::fabsf(along) > region.half_length || libm::fabsf(across) > region.half_width
-        };
+        let outside = |x: usize, y: usize| !region.contains(x as f32, y as f32);
         let mut levels = self.levels;
         let mut too_few = [false; MAX_TILES_PER_SIDE * MAX_TILES_PER_SIDE];
         for ty in ty0..ty1 {

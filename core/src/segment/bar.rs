@@ -199,8 +199,49 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         longest_px: f32,
         config: &BarConfig,
     ) -> bool {
-        self.scale = self.fill_blocks(chip, sigma, sign, expected, longest_px, config);
-        self.scale.is_some()
+        self.scale = None;
+        let (width, height) = (chip.width(), chip.height());
+        let diagonal = libm::hypotf(width as f32, height as f32);
+        let mut scale = scale_of(expected, longest_px, config);
+        let sizes = [scale.diameter_px, scale.length_px, scale.longest_px];
+        // A body of no size, or one that cannot be seen whole in the chip, is not searched for.
+        let seen = scale.diameter_px <= diagonal && scale.length_px <= diagonal;
+        if !sizes.iter().all(|v| v.is_finite() && *v > 0.0) || !sigma.is_finite() || !seen {
+            return false;
+        }
+        if CELLS < 9 {
+            return false;
+        }
+        // Nothing runs on further than across the chip (the walks' step counts stay small).
+        scale.longest_px = scale.longest_px.min(2.0 * diagonal);
+        scale.overhang_px = scale.overhang_px.min(diagonal);
+        // At least the side that fits the chip in the grid, then up to it exactly.
+        let fit = libm::sqrtf((width * height) as f32 / CELLS as f32) as usize;
+        let mut side = ((config.block_diameters * scale.diameter_px) as usize).clamp(1, 64);
+        side = side.max(fit);
+        while (width / side) * (height / side) > CELLS {
+            side += 1;
+        }
+        let (cols, rows) = (width / side, height / side);
+        if cols < 3 || rows < 3 {
+            return false;
+        }
+        self.cols = cols;
+        self.rows = rows;
+        self.side = side;
+        self.block_sigma = sigma.max(0.3) / side as f32;
+        let norm = sign / (side * side) as f32;
+        self.blocks.iter_mut().for_each(|b| *b = 0.0);
+        for y in 0..rows * side {
+            let row = y / side;
+            chip.for_each_in_span(y, 0, cols * side, |x, v| {
+                if let Some(b) = self.blocks.get_mut(row * cols + x / side) {
+                    *b += norm * f32::from(v);
+                }
+            });
+        }
+        self.scale = Some(scale);
+        true
     }
 
     /// The strongest bars in the prepared chip ([`BarSearch::prepare`]), each measured
@@ -245,59 +286,6 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         self.walk(centre, dir, scale, config)
     }
 
-    /// Fills the block grid; None where the body's size gives no search.
-    fn fill_blocks(
-        &mut self,
-        chip: &ChipView,
-        sigma: f32,
-        sign: f32,
-        expected: &ExpectedBody,
-        longest_px: f32,
-        config: &BarConfig,
-    ) -> Option<Scale> {
-        let (width, height) = (chip.width(), chip.height());
-        let diagonal = libm::hypotf(width as f32, height as f32);
-        let mut scale = scale_of(expected, longest_px, config);
-        let sizes = [scale.diameter_px, scale.length_px, scale.longest_px];
-        // A body of no size, or one that cannot be seen whole in the chip, is not searched for.
-        let seen = scale.diameter_px <= diagonal && scale.length_px <= diagonal;
-        if !sizes.iter().all(|v| v.is_finite() && *v > 0.0) || !sigma.is_finite() || !seen {
-            return None;
-        }
-        if CELLS < 9 {
-            return None;
-        }
-        // Nothing runs on further than across the chip (the walks' step counts stay small).
-        scale.longest_px = scale.longest_px.min(2.0 * diagonal);
-        scale.overhang_px = scale.overhang_px.min(diagonal);
-        // At least the side that fits the chip in the grid, then up to it exactly.
-        let fit = libm::sqrtf((width * height) as f32 / CELLS as f32) as usize;
-        let mut side = ((config.block_diameters * scale.diameter_px) as usize).clamp(1, 64);
-        side = side.max(fit);
-        while (width / side) * (height / side) > CELLS {
-            side += 1;
-        }
-        let (cols, rows) = (width / side, height / side);
-        if cols < 3 || rows < 3 {
-            return None;
-        }
-        self.cols = cols;
-        self.rows = rows;
-        self.side = side;
-        self.block_sigma = sigma.max(0.3) / side as f32;
-        let norm = sign / (side * side) as f32;
-        self.blocks.iter_mut().for_each(|b| *b = 0.0);
-        for y in 0..rows * side {
-            let row = y / side;
-            chip.for_each_in_span(y, 0, cols * side, |x, v| {
-                if let Some(b) = self.blocks.get_mut(row * cols + x / side) {
-                    *b += norm * f32::from(v);
-                }
-            });
-        }
-        Some(scale)
-    }
-
     /// The block at column `c`, row `r`, or None outside the grid.
     fn block(&self, c: isize, r: isize) -> Option<f32> {
         grid_at(&self.blocks, self.cols, self.rows, c, r)
@@ -333,14 +321,32 @@ impl<const CELLS: usize> BarSearch<CELLS> {
     /// The mean contrast along the line through `centre` along `dir` over `length_px`, sampled a
     /// block apart (None where it leaves the grid).
     fn line_contrast(&self, centre: ImagePoint, dir: ImagePoint, scale: &Scale) -> Option<f32> {
+        let (sum, on_grid, samples) = self.contrast_sum(centre, dir, scale);
+        (on_grid == samples).then(|| sum / samples as f32)
+    }
+
+    /// The contrasts along the line through `centre` along `dir` over the integration length,
+    /// sampled a block apart: their sum over the samples on the grid, how many those are, and
+    /// how many samples there are.
+    fn contrast_sum(
+        &self,
+        centre: ImagePoint,
+        dir: ImagePoint,
+        scale: &Scale,
+    ) -> (f32, usize, usize) {
         let step = self.side as f32;
         let half_steps = ((0.5 * scale.length_px / step) as i32).max(1);
         let normal = dir.perpendicular();
-        let mut sum = 0.0f32;
+        let (mut sum, mut on_grid) = (0.0f32, 0usize);
         for i in -half_steps..=half_steps {
-            sum += self.contrast_at(centre + dir * (i as f32 * step), normal, scale.flank_px)?;
+            if let Some(c) =
+                self.contrast_at(centre + dir * (i as f32 * step), normal, scale.flank_px)
+            {
+                sum += c;
+                on_grid += 1;
+            }
         }
-        Some(sum / (2 * half_steps + 1) as f32)
+        (sum, on_grid, (2 * half_steps + 1) as usize)
     }
 
     /// The line near the one through `centre` along `dir` (turned by up to a direction step of
@@ -504,14 +510,7 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         let step = self.side as f32;
         let at = |t: f32| ImagePoint::new(centre.x + t * dir.x, centre.y + t * dir.y);
         // The middle's contrast: the mean over the integration length.
-        let half_steps = ((0.5 * scale.length_px / step) as i32).max(1);
-        let (mut sum, mut count) = (0.0f32, 0i32);
-        for i in -half_steps..=half_steps {
-            if let Some(c) = self.contrast_at(at(i as f32 * step), normal, scale.flank_px) {
-                sum += c;
-                count += 1;
-            }
-        }
+        let (sum, count, _) = self.contrast_sum(centre, dir, scale);
         if count == 0 || sum.is_nan() || sum <= 0.0 {
             return Err(BarRefusal::NoContrast);
         }

@@ -175,25 +175,12 @@ impl Corridor {
                 }
             });
         }
-        let mid = 0.5 * (shape.inner + shape.outer);
-        let normal = axis.dir.perpendicular();
-        let (mut sum, mut n) = (0.0f32, 0u32);
-        for (i, (s, c)) in sums.iter().zip(&counts).take(bins).enumerate() {
-            let centre = axis.point(-half + (i as f32 + 0.5) * shape.bin_px);
-            for (side, sign) in [(0usize, -1.0f32), (1, 1.0)] {
-                let (Some(total), Some(&count)) = (s.get(side), c.get(side)) else {
-                    continue;
-                };
-                if count == 0 {
-                    continue;
-                }
-                let p = centre + normal * (sign * mid);
-                let d = total / count as f32 - tiles(p.x, p.y);
-                sum += d * d;
-                n += 1;
-            }
-        }
-        Some(libm::sqrtf(sum / n.max(1) as f32))
+        let mean = |i: usize, side: usize| {
+            let total = *sums.get(i)?.get(side)?;
+            let count = *counts.get(i)?.get(side)?;
+            (count > 0).then(|| total / count as f32)
+        };
+        Some(shape.rms_from_tiles(bins, mean, tiles))
     }
 
     /// Where the corridor lies.
@@ -227,15 +214,37 @@ impl Corridor {
     /// How far the corridor's flank levels lie from `tiles` (the tile model's sky at a chip
     /// point): the root mean square over bins and flanks, grey levels.
     pub fn disagreement(&self, tiles: impl Fn(f32, f32) -> f32) -> f32 {
-        let s = &self.shape;
-        let mid = 0.5 * (s.inner + s.outer);
-        let normal = s.axis.dir.perpendicular();
+        let level = |i: usize, side: usize| {
+            let levels = if side == 0 { &self.minus } else { &self.plus };
+            Some(levels.get(i).copied().unwrap_or(0.0))
+        };
+        self.shape.rms_from_tiles(self.bins, level, tiles)
+    }
+}
+
+impl CorridorShape {
+    /// The root mean square, over the first `bins` bins and both flanks (side 0 at negative
+    /// `across`, 1 at positive), of `level(bin, side)` less `tiles` at the flank's middle, grey
+    /// levels; a flank without a level is left out.
+    fn rms_from_tiles(
+        &self,
+        bins: usize,
+        level: impl Fn(usize, usize) -> Option<f32>,
+        tiles: impl Fn(f32, f32) -> f32,
+    ) -> f32 {
+        let mid = 0.5 * (self.inner + self.outer);
+        let normal = self.axis.dir.perpendicular();
         let (mut sum, mut n) = (0.0f32, 0u32);
-        for i in 0..self.bins {
-            let centre = s.axis.point(-s.half_length + (i as f32 + 0.5) * s.bin_px);
-            for (side, levels) in [(-1.0f32, &self.minus), (1.0, &self.plus)] {
-                let p = centre + normal * (side * mid);
-                let d = levels.get(i).copied().unwrap_or(0.0) - tiles(p.x, p.y);
+        for i in 0..bins {
+            let centre = self
+                .axis
+                .point(-self.half_length + (i as f32 + 0.5) * self.bin_px);
+            for (side, sign) in [(0usize, -1.0f32), (1, 1.0)] {
+                let Some(level) = level(i, side) else {
+                    continue;
+                };
+                let p = centre + normal * (sign * mid);
+                let d = level - tiles(p.x, p.y);
                 sum += d * d;
                 n += 1;
             }

@@ -558,15 +558,17 @@ impl<
         };
         // The component stands where it lies on the winning bar (its mask is the finer one),
         // or where its own bar scores at least as well.
-        let on_bar = target.as_ref().is_ok_and(|t| {
-            let line = Axis {
+        let bar_region = Region {
+            axis: Axis {
                 centre: bar.centre,
                 dir: bar.dir,
-            };
-            let (along, across) = line.local(t.shape.centre.x, t.shape.centre.y);
+            },
+            half_length: bar.half_length_px,
+            half_width: size.diameter_px,
+        };
+        let on_bar = target.as_ref().is_ok_and(|t| {
             libm::fabsf(t.shape.axis.dot(bar.dir)) >= bar::PARALLEL_COS
-                && libm::fabsf(across) <= size.diameter_px
-                && libm::fabsf(along) <= bar.half_length_px
+                && bar_region.contains(t.shape.centre.x, t.shape.centre.y)
         });
         if on_bar || own_best.is_some_and(|s| s >= best_score) {
             return target;
@@ -692,20 +694,21 @@ impl<
         self.mask.clear();
         let class = if polarity.sign() > 0.0 { 1 } else { -1 };
         let mut moments = Moments::empty(class);
-        let line = Axis {
-            centre: bar.centre,
-            dir: bar.dir,
-        };
         let (half_length, half_width) = (bar.half_length_px, 0.5 * diameter_px);
+        let rectangle = Region {
+            axis: Axis {
+                centre: bar.centre,
+                dir: bar.dir,
+            },
+            half_length,
+            half_width,
+        };
         let reach = libm::fabsf(bar.dir.x) * half_length + libm::fabsf(bar.dir.y) * half_width;
         let (x_lo, x_hi) = clamped_span(bar.centre.x, reach, chip.width());
         let reach = libm::fabsf(bar.dir.y) * half_length + libm::fabsf(bar.dir.x) * half_width;
         let (y_lo, y_hi) = clamped_span(bar.centre.y, reach, chip.height());
         for y in y_lo..y_hi {
-            let inside = |x: usize| {
-                let (along, across) = line.local(x as f32, y as f32);
-                libm::fabsf(along) <= half_length && libm::fabsf(across) <= half_width
-            };
+            let inside = |x: usize| rectangle.contains(x as f32, y as f32);
             let Some(x0) = (x_lo..x_hi).find(|&x| inside(x)) else {
                 continue;
             };
@@ -837,20 +840,20 @@ impl<
             let p = silhouette.axis.point(t);
             libm::fabsf(line.local(p.x, p.y).0)
         });
-        let half_length = ends
-            .iter()
-            .fold(UNIFORM_BAR_HALF_SDS * bar.shape.major_sd, |m, e| m.max(*e))
-            + margin_px;
-        let half_width = UNIFORM_BAR_HALF_SDS * bar.shape.minor_sd + margin_px;
+        let kept_region = Region {
+            axis: line,
+            half_length: ends
+                .iter()
+                .fold(UNIFORM_BAR_HALF_SDS * bar.shape.major_sd, |m, e| m.max(*e))
+                + margin_px,
+            half_width: UNIFORM_BAR_HALF_SDS * bar.shape.minor_sd + margin_px,
+        };
         let mut moments = Moments::empty(recut.moments.class);
         let b = recut.moments.bbox;
         for y in usize::from(b.y0)..usize::from(b.y1) {
             let mut run: Option<usize> = None;
             for x in usize::from(b.x0)..=usize::from(b.x1) {
-                let (along, across) = line.local(x as f32, y as f32);
-                let inside = x < usize::from(b.x1)
-                    && libm::fabsf(along) <= half_length
-                    && libm::fabsf(across) <= half_width;
+                let inside = x < usize::from(b.x1) && kept_region.contains(x as f32, y as f32);
                 let kept = inside && self.mask.get(x, y);
                 if !inside {
                     self.mask.set(x, y, false);
