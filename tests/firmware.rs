@@ -67,6 +67,7 @@ fn check_firmware(clip: &Path, lut: &str, dir: &Path) -> anyhow::Result<()> {
         refine: imade_host::run::RefineChoice(None),
         range_smoothing: imade_host::run::SmoothingArg::default(),
         smooth: false,
+        no_grey_fit: true,
     })?;
     let host_csv = host_dir.join("results.csv");
     let packed = dir.join("clip.pack");

@@ -62,6 +62,7 @@ pub fn run_and_evaluate(
         refine: imade_host::run::RefineChoice(None),
         range_smoothing: imade_host::run::SmoothingArg::default(),
         smooth: false,
+        no_grey_fit: false,
     })
 }
 

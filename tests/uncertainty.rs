@@ -21,6 +21,7 @@ fn angle_coverage(clip: &str, range: RangeArg, smooth: bool) -> (f64, f64) {
         refine: RefineChoice(None),
         range_smoothing: SmoothingArg::default(),
         smooth,
+        no_grey_fit: false,
     });
     let pose = &evaluation.pose;
     assert_eq!(pose.frames_with_pose, pose.frames_with_truth, "{clip}");

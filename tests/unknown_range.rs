@@ -85,6 +85,7 @@ fn smoothing_a_recorded_clip_gives_the_depth_and_the_side() {
             refine: imade_host::run::RefineChoice(None),
             range_smoothing: imade_host::run::SmoothingArg::default(),
             smooth: true,
+            no_grey_fit: false,
         });
         let pose = &evaluation.pose;
         let side = pose.yaw_choice_correct.expect("frames with a pose");

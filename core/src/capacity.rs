@@ -59,3 +59,7 @@ pub const SHAPE_BOUNDARY_POINTS: usize = 512;
 
 /// Largest number of intensity-histogram bins of SIS-Cut.
 pub const SHAPE_HIST_BINS: usize = 64;
+
+/// Columns of the grey-level fit's outlines ([`crate::grey_fit::outline`]): three live during
+/// the fit, 8 bytes a column each.
+pub const OUTLINE_COLUMNS: usize = 512;

@@ -3,6 +3,7 @@
 //! pipeline's own (how a range measurement is used).
 
 pub use crate::extremes::SilhouetteConfig;
+pub use crate::grey_fit::GreyFitConfig;
 pub use crate::range_filter::RangeFilterConfig;
 pub use crate::segment::{DetectConfig, SizeTolerance};
 pub use crate::table_match::{GuidedLoopConfig, GuidedMethod, MatchConfig};
@@ -52,6 +53,8 @@ pub struct Config {
     pub silhouette: SilhouetteConfig,
     /// Table match, shape prior and the shape-guided loop.
     pub table_match: MatchConfig,
+    /// The grey-level fit after the table match.
+    pub grey_fit: GreyFitConfig,
     /// Temporal estimate: range smoothing, range trend, yaw choice.
     pub temporal: TemporalConfig,
     /// The detection track: the gate on the next frame's candidates.
@@ -67,6 +70,7 @@ impl Config {
         detect: DetectConfig::DEFAULT,
         silhouette: SilhouetteConfig::DEFAULT,
         table_match: MatchConfig::DEFAULT,
+        grey_fit: GreyFitConfig::DEFAULT,
         temporal: TemporalConfig::DEFAULT,
         track: TrackConfig::DEFAULT,
         uncertainty: UncertaintyConfig::DEFAULT,

@@ -33,6 +33,7 @@ pub mod closed_form;
 pub mod config;
 pub mod extremes;
 pub mod frame;
+pub mod grey_fit;
 pub mod lut;
 pub mod mask;
 pub mod math;

@@ -8,15 +8,17 @@
 //! | silhouette | [`crate::extremes`] | [`Silhouette`] (then the detection cuts the final mask) |
 //! | closed form | [`crate::closed_form`] | [`Hypothesis`] |
 //! | table match | [`crate::table_match`] | [`Measurement`] (and the shape prior) |
+//! | grey-level fit | [`crate::grey_fit`] | [`Measurement::fitted`] |
 //! | temporal estimate | [`crate::temporal`] | [`Estimate`]: range and yaw choice |
 
 use crate::camera::Camera;
-use crate::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS};
+use crate::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS, OUTLINE_COLUMNS};
 use crate::chip::ChipView;
 use crate::closed_form::Hypothesis;
 use crate::config::{Config, RangeUse};
 use crate::extremes::{self, Silhouette};
 use crate::frame::{FrameError, FrameInput, FrameResult, Status};
+use crate::grey_fit::{self, FitInput, FitStart};
 use crate::lut::table::Table;
 use crate::mask::BitMask;
 use crate::model::ProjectileModel;
@@ -178,7 +180,8 @@ impl<
         self.table_match.clear();
     }
 
-    /// Processes one frame: detection, silhouette, closed form, table match, temporal estimate.
+    /// Processes one frame: detection, silhouette, closed form, table match, grey-level fit,
+    /// temporal estimate.
     pub fn process(&mut self, input: &FrameInput) -> FrameResult {
         self.table_match.clear();
         self.solved = None;
@@ -192,7 +195,9 @@ impl<
         let measured = self.measure(&input, &prediction, gate);
         let observation = measured.as_ref().ok().map(|(_, m)| Observation {
             image_range_m: m.image_range_m(),
-            nose_dir: m.hypothesis.silhouette.axis.dir,
+            nose_dir: m
+                .fitted
+                .map_or(m.hypothesis.silhouette.axis.dir, |f| f.nose_dir()),
             scale: ImageScale {
                 diameter_px: m.hypothesis.silhouette.diameter_px,
                 blur_px: m.hypothesis.silhouette.sigma_px,
@@ -210,12 +215,20 @@ impl<
             (Err(e), _) => return FrameResult::from_error(e),
             (Ok(_), None) => return FrameResult::from_error(FrameError::Unmeasurable),
         };
-        let end_sd = uncertainty::end_sd(
-            &measurement.hypothesis.silhouette,
-            self.detect.background().sigma(),
-            measurement.matched.as_ref().map(|m| m.matched.rms_px),
-            &self.config.uncertainty,
-        );
+        let end_sd = measurement
+            .fitted
+            .and_then(|f| {
+                let diameter_px = measurement.hypothesis.silhouette.diameter_px;
+                uncertainty::fitted_end_sd(&f, diameter_px, &self.config.uncertainty)
+            })
+            .unwrap_or_else(|| {
+                uncertainty::end_sd(
+                    &measurement.hypothesis.silhouette,
+                    self.detect.background().sigma(),
+                    measurement.matched.as_ref().map(|m| m.matched.rms_px),
+                    &self.config.uncertainty,
+                )
+            });
         let result = self.result(&measurement, &estimate, end_sd, target.track);
         // Finite but extreme intrinsics or ranges can overflow the geometry, or underflow the
         // depth to the camera's plane (found by fuzzing): such a pose is no pose.
@@ -233,7 +246,7 @@ impl<
         result
     }
 
-    /// The image work of one frame, stage by stage, up to the table match: the target and the
+    /// The image work of one frame, stage by stage, up to the grey-level fit: the target and the
     /// measurement. `prediction` is what the recent frames expect of this one, `gate` where the
     /// track expects the body.
     fn measure(
@@ -286,7 +299,7 @@ impl<
             input.sensor_range_m,
         )
         .ok_or(FrameError::Unmeasurable)?;
-        let measurement = self.table_match.measure(
+        let mut measurement = self.table_match.measure(
             chip,
             self.detect.background(),
             target.polarity,
@@ -295,6 +308,23 @@ impl<
             &self.model,
             &config.table_match,
         );
+        if let (Some(matched), true) = (&measurement.matched, config.grey_fit.enabled) {
+            let input = FitInput {
+                chip,
+                background: self.detect.background(),
+                origin,
+                range_m: input.sensor_range_m,
+                plume_at_tail: hypothesis.silhouette.plume_at_tail,
+            };
+            measurement.fitted = grey_fit::fit::<OUTLINE_COLUMNS>(
+                &input,
+                &FitStart::of_match(matched, &self.model, target.polarity),
+                &self.model,
+                &self.camera,
+                &config.grey_fit,
+            )
+            .ok();
+        }
         Ok((target, measurement))
     }
 

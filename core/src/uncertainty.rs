@@ -20,6 +20,7 @@
 
 use crate::closed_form::Attitude;
 use crate::extremes::Silhouette;
+use crate::grey_fit::GreyFitted;
 use crate::pose::{attitude_of, nose_direction, wrap_deg};
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -37,6 +38,13 @@ pub struct UncertaintyConfig {
     /// An end's sigma along the axis per px of the table match's rms width residual: a frame
     /// whose silhouette the model fits badly has its ends badly placed too.
     pub residual_gain: f32,
+    /// Where the grey-level fit placed the ends: their sigma over the one of its covariance (the
+    /// model's misfit, the sky's texture and the pixels' correlation through the blur, which the
+    /// covariance does not count).
+    pub fit_gain: f32,
+    /// ... and along the axis at least this many body diameters, in quadrature (the ends'
+    /// shading and a plume's glow, which the fit models only roughly).
+    pub fit_min_end_sd_diameters: f32,
 }
 
 impl UncertaintyConfig {
@@ -46,6 +54,8 @@ impl UncertaintyConfig {
         min_end_sd_px: 0.1,
         min_end_sd_diameters: 0.08,
         residual_gain: 1.5,
+        fit_gain: 3.0,
+        fit_min_end_sd_diameters: 0.03,
     };
 }
 
@@ -96,6 +106,30 @@ pub fn end_sd(
             across_px: floor,
         }
     }
+}
+
+/// One sigma of an end placed by the grey-level fit `fitted` of a body `diameter_px` wide: its
+/// covariance's sigmas of the length and of the axis's angle times
+/// [`UncertaintyConfig::fit_gain`], with the floor in quadrature, and along the axis also
+/// [`UncertaintyConfig::fit_min_end_sd_diameters`]; None where the fit has no finite covariance.
+pub fn fitted_end_sd(
+    fitted: &GreyFitted,
+    diameter_px: f32,
+    config: &UncertaintyConfig,
+) -> Option<EndSd> {
+    let length_px = (fitted.ends[0] - fitted.ends[1]).norm();
+    // Two ends: the length's variance is twice an end's, the angle's twice an end's over the
+    // length squared.
+    let along = config.fit_gain * fitted.length_sd_px * core::f32::consts::FRAC_1_SQRT_2;
+    let across =
+        config.fit_gain * fitted.turn_sd_rad * length_px * core::f32::consts::FRAC_1_SQRT_2;
+    let floor = config.min_end_sd_px;
+    let unmodelled = config.fit_min_end_sd_diameters * diameter_px;
+    let sd = EndSd {
+        along_px: libm::sqrtf(along * along + floor * floor + unmodelled * unmodelled),
+        across_px: libm::sqrtf(across * across + floor * floor),
+    };
+    (sd.along_px.is_finite() && sd.across_px.is_finite()).then_some(sd)
 }
 
 /// Variances of pitch and yaw, deg², summed term by term.
@@ -158,6 +192,47 @@ mod tests {
         }
     }
 
+    /// By hand: ends 100 px apart, the fit's length sigma 0.1 px and angle sigma 1 mrad, gain 3,
+    /// floor 0.1 px, 0.03 of an 8-px diameter along: along sqrt(0.2121² + 0.1² + 0.24²),
+    /// across sqrt(0.2121² + 0.1²).
+    #[test]
+    fn a_fitted_end_sigma_is_the_covariance_with_gain_and_floors() {
+        let fitted = GreyFitted {
+            ends: [ImagePoint::new(100.0, 0.0), ImagePoint::new(0.0, 0.0)],
+            px_per_m: 100.0,
+            range_m: 1000.0,
+            scale_sd: 0.0,
+            length_sd_px: 0.1,
+            turn_sd_rad: 1e-3,
+            view: crate::lut::render::View {
+                tilt_deg: 10.0,
+                roll_deg: 0.0,
+            },
+            sigma_px: 1.0,
+            shading: [-100.0, 0.0, 0.0],
+            rms: 2.0,
+            pixels: 1000,
+            iterations: 5,
+        };
+        let config = UncertaintyConfig {
+            fit_gain: 3.0,
+            min_end_sd_px: 0.1,
+            fit_min_end_sd_diameters: 0.03,
+            ..UncertaintyConfig::DEFAULT
+        };
+        let sd = fitted_end_sd(&fitted, 8.0, &config).unwrap();
+        let g = 0.3 / core::f32::consts::SQRT_2;
+        let along = libm::sqrtf(g * g + 0.01 + 0.24 * 0.24);
+        let across = libm::sqrtf(g * g + 0.01);
+        assert!((sd.along_px - along).abs() < 1e-5, "{sd:?} vs {along}");
+        assert!((sd.across_px - across).abs() < 1e-5, "{sd:?} vs {across}");
+        let unmeasured = GreyFitted {
+            turn_sd_rad: f32::NAN,
+            ..fitted
+        };
+        assert_eq!(fitted_end_sd(&unmeasured, 8.0, &config), None);
+    }
+
     /// The bound by hand: noise 2, contrast 40, blur 1 px, diameter 8 px:
     /// 0.05 sqrt(2 sqrt(pi) / 8) = 0.033284 px; times a gain of 3, with a floor of 0.1 px in
     /// quadrature across the axis, and along it also 0.05 diameters (0.4 px) and, at a gain of
@@ -169,6 +244,7 @@ mod tests {
             min_end_sd_px: 0.1,
             min_end_sd_diameters: 0.05,
             residual_gain: 1.0,
+            ..UncertaintyConfig::DEFAULT
         };
         let sd = end_sd(&silhouette(40.0, 1.0, 8.0), 2.0, Some(0.3), &config);
         let across = libm::sqrtf(0.099852 * 0.099852 + 0.01);

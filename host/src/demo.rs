@@ -52,6 +52,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             refine: crate::run::RefineChoice(None),
             range_smoothing: crate::run::SmoothingArg::default(),
             smooth: false,
+            grey_fit: true,
         })
         .collect();
     eprintln!(

@@ -95,6 +95,7 @@ pub fn parse_refine(name: &str) -> Result<RefineChoice, String> {
 fn job_config(job: &Job) -> Config {
     let mut config = job.range.config().with_guided_method(job.refine.0);
     config.temporal.range_smoothing = job.range_smoothing.smoothing();
+    config.grey_fit.enabled = job.grey_fit;
     config
 }
 
@@ -134,6 +135,10 @@ pub struct RunArgs {
     /// causal, as on the mount).
     #[arg(long)]
     pub smooth: bool,
+    /// Leave out the grey-level fit: each frame's pose comes from the table match, as on the
+    /// firmware, which does not run the fit yet.
+    #[arg(long)]
+    pub no_grey_fit: bool,
 }
 
 /// One clip to process and where its results go.
@@ -155,6 +160,8 @@ pub struct Job {
     pub range_smoothing: SmoothingArg,
     /// Smooth forwards and backwards (see [`RunArgs::smooth`]).
     pub smooth: bool,
+    /// Run the grey-level fit (see [`RunArgs::no_grey_fit`]).
+    pub grey_fit: bool,
 }
 
 /// Runs `imade run`. Every clip is processed independently; the outcome is an error carrying
@@ -216,6 +223,7 @@ fn plan(args: &RunArgs) -> anyhow::Result<Vec<Job>> {
             refine: args.refine,
             range_smoothing: args.range_smoothing,
             smooth: args.smooth,
+            grey_fit: !args.no_grey_fit,
         })
         .collect();
     for (i, job) in jobs.iter().enumerate() {
@@ -484,6 +492,7 @@ mod tests {
             refine: RefineChoice(Some(GuidedMethod::GvfAsm)),
             range_smoothing: SmoothingArg::default(),
             smooth: false,
+            no_grey_fit: false,
         })?;
         let poses = std::fs::read_to_string(out.join("results.csv"))?
             .lines()

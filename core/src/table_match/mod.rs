@@ -21,6 +21,7 @@ use crate::camera::Camera;
 use crate::chip::ChipView;
 use crate::closed_form::{ClosedForm, Hypothesis};
 use crate::config::BodyPolarity;
+use crate::grey_fit::GreyFitted;
 use crate::lut::render;
 use crate::lut::table::Table;
 use crate::mask::BitMask;
@@ -157,16 +158,20 @@ pub struct Measurement {
     /// The match kept (after the shape-guided loop, where it ran); None without a table or
     /// where nothing matched.
     pub matched: Option<MatchedPose>,
+    /// The grey-level fit from the match, where it ran and converged inside its bounds.
+    pub fitted: Option<GreyFitted>,
 }
 
 impl Measurement {
     /// The slant range measured from the image, m: the matched scale's where the range was not
     /// given, else the apparent diameter's.
     pub fn image_range_m(&self) -> Option<f32> {
-        self.matched
-            .as_ref()
-            .filter(|_| self.hypothesis.sensor_range_m.is_none())
-            .map(|m| m.range_m)
+        if self.hypothesis.sensor_range_m.is_some() {
+            return self.hypothesis.image_range_m;
+        }
+        self.fitted
+            .map(|f| f.range_m)
+            .or(self.matched.as_ref().map(|m| m.range_m))
             .or(self.hypothesis.image_range_m)
     }
 
@@ -178,6 +183,10 @@ impl Measurement {
     /// 1.37 deg/km). Without a match, the closed form's.
     pub fn at_range(&self, camera: &Camera, model: &ProjectileModel, range_m: f32) -> ClosedForm {
         let closed = || self.hypothesis.at_range(camera, model, range_m);
+        if let Some(fitted) = &self.fitted {
+            let [nose, tail] = fitted.ends;
+            return crate::closed_form::from_ends(nose, tail, camera, model.length_m, range_m);
+        }
         match &self.matched {
             Some(m) if self.lengths_averaged() == 2 => {
                 m.at_range(camera, model, range_m).mean(&closed())
@@ -191,7 +200,10 @@ impl Measurement {
     /// (the match's and the closed form's) where the match ran and the range is not given, else
     /// one.
     pub fn lengths_averaged(&self) -> u8 {
-        if self.matched.is_some() && self.hypothesis.sensor_range_m.is_none() {
+        if self.fitted.is_none()
+            && self.matched.is_some()
+            && self.hypothesis.sensor_range_m.is_none()
+        {
             2
         } else {
             1
@@ -328,6 +340,7 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
         Measurement {
             hypothesis: *hypothesis,
             matched,
+            fitted: None,
         }
     }
 

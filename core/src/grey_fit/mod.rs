@@ -1,0 +1,715 @@
+//! The grey-level fit: the model's whole image fitted to the chip's grey levels.
+//!
+//! Starting from the table match, the fit moves the model's silhouette (its origin along and
+//! across the axis, the axis's angle, the scale, the tilt out of the image plane and the roll),
+//! the optics' blur and the lighting until the rendered image ([`appearance`]: the outline of
+//! [`outline`], shaded, blurred) best matches the chip's grey levels over a window around the
+//! body. The sky under the body is the detection's sky model plus a fitted plane. Every pixel
+//! counts, the body's length, its fins and its base outline included: that is what carries the
+//! scale where a diameter of 4 px cannot, and what separates the blur from the width.
+//!
+//! The fit is Levenberg-Marquardt ([`crate::math::least_squares`]) over 13 parameters: 7 of the
+//! geometry and optics, with forward-difference derivatives (each evaluation renders the window
+//! 8 times), and 6 that the image is linear in (the body's shading quadratic and the sky's plane).
+//! Residuals beyond [`GreyFitConfig::huber_sigmas`] noise sigmas count linearly (Huber), so a
+//! star, a filament or plume glow in the window pulls less. Where the range is known the scale is
+//! held at it. The window's pixels are chosen once, from the start, so that every evaluation
+//! sums over the same pixels; a window larger than [`GreyFitConfig::max_pixels`] is thinned on a
+//! regular lattice.
+
+pub mod appearance;
+pub mod outline;
+
+use crate::camera::Camera;
+use crate::chip::ChipView;
+use crate::config::BodyPolarity;
+use crate::lut::render::{Placement, View};
+use crate::math::least_squares::{self, Normal, Problem};
+use crate::model::ProjectileModel;
+use crate::point::ImagePoint;
+use crate::segment::background::Background;
+use crate::table_match::MatchedPose;
+use nalgebra::SVector;
+use outline::Outline;
+
+/// The fit's parameters, as offsets from the start where they move the silhouette: along and
+/// across the start's axis (px), the axis's turn (rad), the log of the scale, tilt and roll
+/// (deg), blur sigma (px); then the body's shading `c0, c1, c2` and the sky plane's level and
+/// slopes across the window (grey levels).
+type Params = SVector<f32, PARAMS>;
+/// Parameters.
+const PARAMS: usize = 13;
+/// Parameters rendered with a derivative by forward difference.
+const RENDERED: usize = 7;
+/// Index of the log scale.
+const LOG_SCALE: usize = 3;
+/// Index of the tilt.
+const TILT: usize = 4;
+/// Index of the roll.
+const ROLL: usize = 5;
+/// Index of the blur.
+const SIGMA: usize = 6;
+/// Index of `c0`.
+const SHADING: usize = 7;
+/// Index of the sky's level.
+const PLANE: usize = 10;
+
+/// Forward-difference steps of the rendered parameters, in their units (the axis's turn is
+/// scaled by the body's half length in px at the start).
+const STEP: [f32; RENDERED] = [0.05, 0.05, 0.05, 0.002, 0.5, 1.0, 0.02];
+
+/// The smallest and largest blur sigma fitted, px.
+const SIGMA_RANGE_PX: (f32, f32) = (0.3, 4.0);
+/// The largest tilt, deg (the silhouette of a body seen end-on has no axis to fit).
+const MAX_TILT_DEG: f32 = 89.0;
+
+/// The grey-level fit's settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GreyFitConfig {
+    /// Whether the fit runs (after a table match).
+    pub enabled: bool,
+    /// The most pixels the fit sums over; a larger window is thinned on a regular lattice.
+    pub max_pixels: usize,
+    /// Outline columns per blur sigma along the axis (fewer where the outline's capacity ends).
+    pub columns_per_sigma: f32,
+    /// The window reaches this many blur sigmas beyond the silhouette ...
+    pub margin_sigmas: f32,
+    /// ... plus this many px.
+    pub margin_px: f32,
+    /// Residuals beyond this many noise sigmas count linearly (Huber).
+    pub huber_sigmas: f32,
+    /// Levenberg-Marquardt's iterations from the start and from it turned end for end, to tell
+    /// the nose from the tail ...
+    pub orientation_iterations: u32,
+    /// ... and its iteration limit from the better of them.
+    pub max_iterations: u32,
+    /// The fitted scale stays within this fraction of the start's.
+    pub max_scale_change: f32,
+    /// The fitted origin stays within this many px of the start's.
+    pub max_shift_px: f32,
+    /// Whether the scale is fitted where the range is not known (else it is held at the
+    /// start's, the table match's).
+    pub fit_scale: bool,
+}
+
+impl GreyFitConfig {
+    /// The defaults.
+    pub const DEFAULT: GreyFitConfig = GreyFitConfig {
+        enabled: true,
+        max_pixels: 2500,
+        columns_per_sigma: 3.0,
+        margin_sigmas: 3.0,
+        margin_px: 2.0,
+        huber_sigmas: 3.0,
+        orientation_iterations: 3,
+        max_iterations: 12,
+        max_scale_change: 0.15,
+        max_shift_px: 4.0,
+        fit_scale: false,
+    };
+}
+
+/// Why the fit gave no result.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum GreyFitError {
+    /// The start's silhouette has no outline (an absurd scale or view).
+    NoOutline,
+    /// The window holds too few pixels to fit.
+    TooFewPixels,
+    /// The fit could not be evaluated at its start.
+    NoStart,
+    /// The fit ended at its bounds: the model does not describe the image there.
+    AtBound,
+}
+
+/// What the grey-level fit measured.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GreyFitted {
+    /// The projected nose tip and tail base centre, full-frame px.
+    pub ends: [ImagePoint; 2],
+    /// Scale, px per metre across the axis.
+    pub px_per_m: f32,
+    /// Slant range of the scale, m (the given one where the range is known).
+    pub range_m: f32,
+    /// Fractional one-sigma of the scale from the fit's covariance (0 where it was held).
+    pub scale_sd: f32,
+    /// One sigma of the apparent length nose to tail, px, and of the projected axis's angle, rad,
+    /// from the fit's covariance (NaN where it has none).
+    pub length_sd_px: f32,
+    /// See `length_sd_px`.
+    pub turn_sd_rad: f32,
+    /// The fitted view.
+    pub view: View,
+    /// Blur sigma, px (the PSF and the pixel's width together).
+    pub sigma_px: f32,
+    /// The body's contrast against the sky across its outline, `c0 + c1 w + c2 w²` with `w`
+    /// from -1 on the lower edge to 1 on the upper ([`appearance`]), grey levels.
+    pub shading: [f32; 3],
+    /// Root-mean-square residual, grey levels.
+    pub rms: f32,
+    /// Pixels summed.
+    pub pixels: u32,
+    /// Levenberg-Marquardt iterations spent.
+    pub iterations: u32,
+}
+
+impl GreyFitted {
+    /// The projected axis, unit, tail to nose.
+    pub fn nose_dir(&self) -> ImagePoint {
+        let [nose, tail] = self.ends;
+        let d = nose - tail;
+        d * (1.0 / d.norm().max(f32::MIN_POSITIVE))
+    }
+}
+
+/// One frame's data for the fit.
+pub struct FitInput<'a> {
+    /// The chip.
+    pub chip: &'a ChipView<'a>,
+    /// Its sky model.
+    pub background: &'a Background,
+    /// Full-frame pixel of the chip's top-left.
+    pub origin: (i32, i32),
+    /// The range, where it is known, m.
+    pub range_m: Option<f32>,
+    /// Whether a plume glows beyond the start's tail ([`crate::Silhouette::plume_at_tail`]):
+    /// the pixels behind the base are then left out, and the tail is where the start has it.
+    pub plume_at_tail: bool,
+}
+
+/// Where the fit starts: the table match's silhouette, blur and contrast.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FitStart {
+    /// The body origin's chip pixel, the projected axis (tail to nose) and the scale in px per
+    /// metre.
+    pub placement: Placement,
+    /// The view.
+    pub view: View,
+    /// Blur sigma, px.
+    pub sigma_px: f32,
+    /// The body's mean contrast against the sky, signed (negative for a dark body), grey levels.
+    pub contrast: f32,
+}
+
+impl FitStart {
+    /// The start at the table match `matched` of a body `model` whose contrast has `polarity`.
+    pub fn of_match(
+        matched: &MatchedPose,
+        model: &ProjectileModel,
+        polarity: BodyPolarity,
+    ) -> FitStart {
+        FitStart {
+            placement: Placement {
+                px_per_unit: matched.placement.px_per_unit / model.diameter_m,
+                ..matched.placement
+            },
+            view: matched.view,
+            sigma_px: matched.section.sigma_px,
+            contrast: polarity.sign() * matched.section.mean_contrast,
+        }
+    }
+}
+
+/// The silhouette's placement on the chip at parameters `p`.
+#[derive(Debug, Clone, Copy)]
+struct Frame {
+    origin: ImagePoint,
+    dir: ImagePoint,
+    px_per_m: f32,
+}
+
+impl Frame {
+    /// Silhouette-frame coordinates of chip point `(x, y)`, m.
+    fn local(&self, x: f32, y: f32) -> (f32, f32) {
+        let d = ImagePoint::new(x, y) - self.origin;
+        let inv = 1.0 / self.px_per_m;
+        (d.dot(self.dir) * inv, d.dot(self.dir.perpendicular()) * inv)
+    }
+}
+
+/// The pixels summed: those on a lattice of `stride` px within a rectangle along the start's
+/// axis.
+#[derive(Debug, Clone, Copy)]
+struct Window {
+    /// The start's placement.
+    frame: Frame,
+    /// Extent along the axis, px from the start's origin.
+    along: (f32, f32),
+    /// Half extent across, px.
+    across: f32,
+    /// Pixels behind this, px along the axis from the start's origin, are left out (the plume).
+    behind: f32,
+    /// Chip box holding the rectangle: columns and rows `start..end`.
+    columns: (usize, usize),
+    rows: (usize, usize),
+    stride: usize,
+    /// The plane's centre and scale, chip px.
+    centre: ImagePoint,
+    radius: f32,
+}
+
+impl Window {
+    fn new(
+        frame: Frame,
+        along: (f32, f32),
+        across: f32,
+        behind: f32,
+        chip: &ChipView,
+        max: usize,
+    ) -> Window {
+        let corners = [
+            (along.0, -across),
+            (along.0, across),
+            (along.1, -across),
+            (along.1, across),
+        ]
+        .map(|(t, s)| frame.origin + frame.dir * t + frame.dir.perpendicular() * s);
+        let (w, h) = (chip.width() as f32, chip.height() as f32);
+        let span = |f: fn(&ImagePoint) -> f32, limit: f32| {
+            let lo = corners.iter().map(f).fold(f32::INFINITY, f32::min);
+            let hi = corners.iter().map(f).fold(f32::NEG_INFINITY, f32::max);
+            let lo = libm::floorf(lo).clamp(0.0, limit) as usize;
+            let hi = (libm::ceilf(hi) + 1.0).clamp(0.0, limit) as usize;
+            (lo, hi.max(lo))
+        };
+        let columns = span(|p| p.x, w);
+        let rows = span(|p| p.y, h);
+        let mut window = Window {
+            frame,
+            along,
+            across,
+            behind,
+            columns,
+            rows,
+            stride: 1,
+            centre: ImagePoint::new(
+                0.5 * (columns.0 + columns.1) as f32,
+                0.5 * (rows.0 + rows.1) as f32,
+            ),
+            radius: 0.5 * ((columns.1 - columns.0).max(rows.1 - rows.0)).max(1) as f32,
+        };
+        let count = window.count();
+        if count > max {
+            window.stride =
+                (libm::ceilf(libm::sqrtf(count as f32 / max.max(1) as f32)) as usize).max(1);
+        }
+        window
+    }
+
+    /// Calls `f` with every pixel summed.
+    fn for_each(&self, mut f: impl FnMut(usize, usize)) {
+        for y in (self.rows.0..self.rows.1).step_by(self.stride) {
+            for x in (self.columns.0..self.columns.1).step_by(self.stride) {
+                let d = ImagePoint::new(x as f32, y as f32) - self.frame.origin;
+                let (t, s) = (d.dot(self.frame.dir), d.dot(self.frame.dir.perpendicular()));
+                if t >= self.along.0.max(self.behind)
+                    && t <= self.along.1
+                    && libm::fabsf(s) <= self.across
+                {
+                    f(x, y);
+                }
+            }
+        }
+    }
+
+    fn count(&self) -> usize {
+        let mut n = 0;
+        self.for_each(|_, _| n += 1);
+        n
+    }
+}
+
+/// The fit as the solver sees it.
+struct GreyProblem<'a, const C: usize> {
+    input: &'a FitInput<'a>,
+    model: &'a ProjectileModel<'a>,
+    start: Frame,
+    window: Window,
+    /// Outline columns.
+    columns: usize,
+    /// Forward-difference steps.
+    step: [f32; RENDERED],
+    /// Whether the scale is held (the range known).
+    scale_held: bool,
+    /// Whether the roll changes the outline (the model has fins).
+    has_fins: bool,
+    /// Residuals beyond this count linearly, grey levels.
+    huber: f32,
+    config: &'a GreyFitConfig,
+}
+
+impl<const C: usize> GreyProblem<'_, C> {
+    /// The placement at `p`.
+    fn frame(&self, p: &Params) -> Frame {
+        let (sin, cos) = (libm::sinf(p[2]), libm::cosf(p[2]));
+        let d0 = self.start.dir;
+        let dir = ImagePoint::new(cos * d0.x - sin * d0.y, sin * d0.x + cos * d0.y);
+        Frame {
+            origin: self.start.origin + d0 * p[0] + d0.perpendicular() * p[1],
+            dir,
+            px_per_m: self.start.px_per_m * libm::expf(p[LOG_SCALE]),
+        }
+    }
+
+    fn outline(&self, tilt_deg: f32, roll_deg: f32) -> Option<Outline<C>> {
+        Outline::build(self.model, &View { tilt_deg, roll_deg }, self.columns)
+    }
+
+    /// The body's basis at chip pixel `(x, y)` for placement `frame`, outline and blur (px).
+    fn basis(frame: &Frame, outline: &Outline<C>, x: f32, y: f32, sigma_px: f32) -> [f32; 3] {
+        let (u, v) = frame.local(x, y);
+        appearance::body_basis(outline, u, v, sigma_px / frame.px_per_m)
+    }
+}
+
+impl<const C: usize> Problem<PARAMS> for GreyProblem<'_, C> {
+    fn evaluate(&self, p: &Params) -> Option<Normal<PARAMS>> {
+        let base = self.outline(p[TILT], p[ROLL])?;
+        let tilted = self.outline(p[TILT] + self.step[TILT], p[ROLL])?;
+        let rolled = if self.has_fins {
+            Some(self.outline(p[TILT], p[ROLL] + self.step[ROLL])?)
+        } else {
+            None
+        };
+        let mut frames = [self.frame(p); 5];
+        for (k, frame) in frames.iter_mut().enumerate().skip(1) {
+            let mut q = *p;
+            q[k - 1] += self.step[k - 1];
+            *frame = self.frame(&q);
+        }
+        let sigma = p[SIGMA];
+        let shading = [p[SHADING], p[SHADING + 1], p[SHADING + 2]];
+        let contrast = |b: [f32; 3]| shading[0] * b[0] + shading[1] * b[1] + shading[2] * b[2];
+        let mut normal = Normal::<PARAMS>::zeros();
+        let w = &self.window;
+        let inv_radius = 1.0 / w.radius;
+        w.for_each(|x, y| {
+            let (xf, yf) = (x as f32, y as f32);
+            let data = f32::from(self.input.chip.get(x, y)) - self.input.background.at(xf, yf);
+            let plane = [
+                1.0,
+                (xf - w.centre.x) * inv_radius,
+                (yf - w.centre.y) * inv_radius,
+            ];
+            let sky = p[PLANE] * plane[0] + p[PLANE + 1] * plane[1] + p[PLANE + 2] * plane[2];
+            let b0 = Self::basis(&frames[0], &base, xf, yf, sigma);
+            let body = contrast(b0);
+            let mut g = Params::zeros();
+            for (k, frame) in frames.iter().enumerate().skip(1) {
+                if k - 1 == LOG_SCALE && self.scale_held {
+                    continue;
+                }
+                let bk = Self::basis(frame, &base, xf, yf, sigma);
+                g[k - 1] = (contrast(bk) - body) / self.step[k - 1];
+            }
+            let bt = Self::basis(&frames[0], &tilted, xf, yf, sigma);
+            g[TILT] = (contrast(bt) - body) / self.step[TILT];
+            if let Some(rolled) = &rolled {
+                let br = Self::basis(&frames[0], rolled, xf, yf, sigma);
+                g[ROLL] = (contrast(br) - body) / self.step[ROLL];
+            }
+            let bs = Self::basis(&frames[0], &base, xf, yf, sigma + self.step[SIGMA]);
+            g[SIGMA] = (contrast(bs) - body) / self.step[SIGMA];
+            for i in 0..3 {
+                g[SHADING + i] = b0[i];
+                g[PLANE + i] = plane[i];
+            }
+            let r = data - body - sky;
+            let a = libm::fabsf(r);
+            let (cost, weight) = if a <= self.huber {
+                (r * r, 1.0)
+            } else {
+                (
+                    2.0 * self.huber * a - self.huber * self.huber,
+                    self.huber / a,
+                )
+            };
+            normal.cost += cost;
+            crate::math::accumulate(&mut normal.jtj, &mut normal.jtr, &g, weight, r);
+        });
+        Some(normal.complete())
+    }
+
+    fn constrain(&self, from: &Params, trial: &mut Params) {
+        // `max` then `min`, not `clamp`: bounds from the configuration may be NaN or crossed,
+        // and `clamp` panics on those.
+        let within = |v: f32, lo: f32, hi: f32| v.max(lo).min(hi);
+        let shift = self.config.max_shift_px;
+        trial[0] = within(trial[0], -shift, shift);
+        trial[1] = within(trial[1], -shift, shift);
+        let scale = libm::logf(1.0 + self.config.max_scale_change);
+        trial[LOG_SCALE] = within(trial[LOG_SCALE], -scale, scale);
+        trial[TILT] = within(trial[TILT], 0.0, MAX_TILT_DEG);
+        // The roll and the turn move at most 10 and 2 deg a step.
+        trial[ROLL] = within(trial[ROLL], from[ROLL] - 10.0, from[ROLL] + 10.0);
+        let turn = 2.0 * crate::pose::RAD;
+        trial[2] = within(trial[2], from[2] - turn, from[2] + turn);
+        trial[SIGMA] = within(trial[SIGMA], SIGMA_RANGE_PX.0, SIGMA_RANGE_PX.1);
+    }
+}
+
+/// Fits the model's image to the chip from `from` (usually [`FitStart::of_match`]), with
+/// outlines of at most `C` columns. Never inlined: its outlines (8 bytes a column each) then
+/// take stack only while it runs, not in every caller's frame (the firmware, which does not
+/// run it, kept 11 KB more stack when it was).
+#[inline(never)]
+pub fn fit<const C: usize>(
+    input: &FitInput,
+    from: &FitStart,
+    model: &ProjectileModel,
+    camera: &Camera,
+    config: &GreyFitConfig,
+) -> Result<GreyFitted, GreyFitError> {
+    let start = Frame {
+        origin: from.placement.origin,
+        dir: from.placement.dir,
+        px_per_m: from.placement.px_per_unit,
+    };
+    let view = from.view;
+    let sigma = from.sigma_px.max(SIGMA_RANGE_PX.0).min(SIGMA_RANGE_PX.1);
+    let (lo, hi) = crate::lut::render::u_extent(model, &view);
+    let length_px = (hi - lo) * start.px_per_m;
+    let columns = libm::ceilf(length_px * config.columns_per_sigma / sigma);
+    if !columns.is_finite() {
+        return Err(GreyFitError::NoOutline);
+    }
+    let first =
+        Outline::<C>::build(model, &view, columns as usize).ok_or(GreyFitError::NoOutline)?;
+    let margin = config.margin_sigmas * sigma + config.margin_px;
+    // Symmetric about the origin, so that the reversed start sums over the same pixels.
+    let reach = libm::fabsf(lo).max(libm::fabsf(hi)) * start.px_per_m + margin;
+    let across = first.half_span_m() * start.px_per_m + margin;
+    let behind = if input.plume_at_tail {
+        -0.5 * model.length_m * libm::cosf(view.tilt_deg * crate::pose::RAD) * start.px_per_m
+    } else {
+        f32::NEG_INFINITY
+    };
+    let window = Window::new(
+        start,
+        (-reach, reach),
+        across,
+        behind,
+        input.chip,
+        config.max_pixels,
+    );
+    let pixels = window.count();
+    if pixels < 4 * PARAMS {
+        return Err(GreyFitError::TooFewPixels);
+    }
+    let mut step = STEP;
+    step[2] /= (0.5 * length_px).max(1.0);
+    let problem = |start: Frame| GreyProblem::<C> {
+        input,
+        model,
+        start,
+        window,
+        columns: first.columns(),
+        step,
+        scale_held: input.range_m.is_some() || !config.fit_scale,
+        has_fins: model.fins().is_some(),
+        huber: config.huber_sigmas * input.background.sigma().max(f32::MIN_POSITIVE),
+        config,
+    };
+    let mut p = Params::zeros();
+    p[TILT] = view.tilt_deg.max(0.0).min(MAX_TILT_DEG);
+    p[ROLL] = view.roll_deg;
+    p[SIGMA] = sigma;
+    p[SHADING] = from.contrast;
+    let solver = |max_iterations| least_squares::Config {
+        max_iterations,
+        relative_tolerance: 1e-5,
+        ..least_squares::Config::DEFAULT
+    };
+    // Nose and tail: a few iterations from the start and from it turned end for end; the
+    // better one goes on.
+    let probe = solver(config.orientation_iterations);
+    let reversed = Frame {
+        dir: -start.dir,
+        ..start
+    };
+    let starts = if input.plume_at_tail {
+        &[start][..]
+    } else {
+        &[start, reversed][..]
+    };
+    let (problem, probed) = starts
+        .iter()
+        .copied()
+        .filter_map(|s| {
+            let problem = problem(s);
+            let probed = least_squares::minimize(&problem, p, &probe)?;
+            Some((problem, probed))
+        })
+        .min_by(|a, b| a.1.cost.total_cmp(&b.1.cost))
+        .ok_or(GreyFitError::NoStart)?;
+    let solution = least_squares::minimize(&problem, probed.params, &solver(config.max_iterations))
+        .ok_or(GreyFitError::NoStart)?;
+    let p = solution.params;
+    let scale_bound = libm::logf(1.0 + config.max_scale_change);
+    let at_bound = libm::fabsf(p[0]).max(libm::fabsf(p[1])) >= config.max_shift_px
+        || (!problem.scale_held && libm::fabsf(p[LOG_SCALE]) >= 0.999 * scale_bound)
+        || p[SIGMA] <= SIGMA_RANGE_PX.0
+        || p[SIGMA] >= SIGMA_RANGE_PX.1;
+    if at_bound {
+        return Err(GreyFitError::AtBound);
+    }
+    let frame = problem.frame(&p);
+    let fitted_view = View {
+        tilt_deg: p[TILT],
+        roll_deg: p[ROLL],
+    };
+    let half = 0.5 * model.length_m * libm::cosf(p[TILT] * crate::pose::RAD) * frame.px_per_m;
+    let o = ImagePoint::of_pixel(input.origin);
+    let ends = [
+        o + frame.origin + frame.dir * half,
+        o + frame.origin - frame.dir * half,
+    ];
+    let range_m = match input.range_m {
+        Some(r) => r,
+        None => 1.0 / camera.normalized_length(frame.px_per_m, frame.dir.perpendicular().into()),
+    };
+    // The parameters' covariance: the residual variance times the inverse normal matrix.
+    let covariance = problem
+        .evaluate(&p)
+        .and_then(|n| {
+            let mut jtj = n.jtj;
+            // A parameter the image does not depend on (the scale where held, the roll without
+            // fins) is held.
+            for k in 0..PARAMS {
+                if let Some(d) = jtj.get_mut((k, k)).filter(|d| **d <= 0.0) {
+                    *d = 1.0;
+                }
+            }
+            jtj.cholesky()
+        })
+        .map(|c| c.inverse() * (solution.cost / (pixels as f32 - PARAMS as f32).max(1.0)));
+    let var = |a: usize, b: usize| covariance.map_or(f32::NAN, |c| c[(a, b)]);
+    let scale_sd = if problem.scale_held {
+        0.0
+    } else {
+        libm::sqrtf(var(LOG_SCALE, LOG_SCALE).max(0.0))
+    };
+    // The length 2 half = L k cos(tilt): its derivatives in the tilt (deg) and the log scale.
+    let d_tilt = -2.0 * half * libm::tanf(p[TILT] * crate::pose::RAD) * crate::pose::RAD;
+    let d_scale = if problem.scale_held { 0.0 } else { 2.0 * half };
+    let length_var = d_tilt * d_tilt * var(TILT, TILT)
+        + d_scale * d_scale * var(LOG_SCALE, LOG_SCALE)
+        + 2.0 * d_tilt * d_scale * var(TILT, LOG_SCALE);
+    Ok(GreyFitted {
+        ends,
+        px_per_m: frame.px_per_m,
+        range_m,
+        scale_sd,
+        length_sd_px: libm::sqrtf(length_var.max(0.0)),
+        turn_sd_rad: libm::sqrtf(var(2, 2).max(0.0)),
+        view: fitted_view,
+        sigma_px: p[SIGMA],
+        shading: [p[SHADING], p[SHADING + 1], p[SHADING + 2]],
+        rms: libm::sqrtf(solution.cost / pixels as f32),
+        pixels: pixels as u32,
+        iterations: solution.iterations,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::testing::reference;
+
+    const SIDE: usize = 160;
+
+    /// A chip of the reference body drawn by this module's own image model at `truth` (sky 1000,
+    /// shading -200 + 30 w - 20 w², blur 0.8 px), with Gaussian noise of `noise` grey levels.
+    fn chip_of(truth: &FitStart, noise: f32) -> [u16; SIDE * SIDE] {
+        let model = reference();
+        let outline = Outline::<512>::build(&model, &truth.view, 400).unwrap();
+        let frame = Frame {
+            origin: truth.placement.origin,
+            dir: truth.placement.dir,
+            px_per_m: truth.placement.px_per_unit,
+        };
+        let mut noise_values = crate::testing::noise_sequence(SIDE * SIDE, 7);
+        let mut data = [0u16; SIDE * SIDE];
+        for (i, px) in data.iter_mut().enumerate() {
+            let (x, y) = ((i % SIDE) as f32, (i / SIDE) as f32);
+            let (u, v) = frame.local(x, y);
+            let b = appearance::body_basis(&outline, u, v, truth.sigma_px / frame.px_per_m);
+            let value = 1000.0 - 200.0 * b[0] + 30.0 * b[1] - 20.0 * b[2];
+            *px = (value + noise * noise_values.next().unwrap_or(0.0)) as u16;
+        }
+        data
+    }
+
+    fn truth() -> FitStart {
+        let angle = 0.5f32;
+        FitStart {
+            placement: Placement {
+                origin: ImagePoint::new(80.3, 79.6),
+                dir: ImagePoint::new(libm::cosf(angle), libm::sinf(angle)),
+                // A 5-px diameter.
+                px_per_unit: 62.5,
+            },
+            view: View {
+                tilt_deg: 25.0,
+                roll_deg: 20.0,
+            },
+            sigma_px: 0.8,
+            contrast: -200.0,
+        }
+    }
+
+    /// From a start 0.6 px off, 4 % off in scale, 5 deg off in tilt and roll and 0.2 px off
+    /// in blur, the fit finds the image it was drawn from (the fit's own model: a check of the
+    /// solver and the derivatives, not of the physics).
+    #[test]
+    fn the_fit_recovers_the_pose_its_own_image_was_drawn_at() {
+        let truth = truth();
+        let data = chip_of(&truth, 2.0);
+        let chip = ChipView::gray16(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        let mut background = Background::new();
+        background.estimate(&chip);
+        let start = FitStart {
+            placement: Placement {
+                origin: truth.placement.origin + ImagePoint::new(0.6, -0.4),
+                px_per_unit: truth.placement.px_per_unit * 1.04,
+                ..truth.placement
+            },
+            view: View {
+                tilt_deg: 20.0,
+                roll_deg: 25.0,
+            },
+            sigma_px: 1.0,
+            contrast: -150.0,
+        };
+        let input = FitInput {
+            chip: &chip,
+            background: &background,
+            origin: (0, 0),
+            range_m: None,
+            plume_at_tail: false,
+        };
+        let camera = Camera {
+            fx: 100_000.0,
+            fy: 100_000.0,
+            cx: 80.0,
+            cy: 80.0,
+        };
+        let model = reference();
+        let config = GreyFitConfig {
+            fit_scale: true,
+            ..GreyFitConfig::DEFAULT
+        };
+        let fitted = fit::<512>(&input, &start, &model, &camera, &config).unwrap();
+        let scale = fitted.px_per_m / truth.placement.px_per_unit - 1.0;
+        assert!(scale.abs() < 2e-3, "scale off by {scale}: {fitted:?}");
+        assert!((fitted.view.tilt_deg - 25.0).abs() < 0.5, "{fitted:?}");
+        assert!((fitted.sigma_px - 0.8).abs() < 0.03, "{fitted:?}");
+        let half = 0.5 * model.length_m * libm::cosf(25.0 * crate::pose::RAD) * 62.5;
+        let nose = truth.placement.origin + truth.placement.dir * half;
+        let miss = (fitted.ends[0] - nose).norm();
+        assert!(miss < 0.1, "nose {miss} px off: {fitted:?}");
+    }
+}
