@@ -469,7 +469,7 @@ pub fn fit<const C: usize>(
         px_per_m: from.placement.px_per_unit,
     };
     let view = from.view;
-    let sigma = from.sigma_px.max(SIGMA_RANGE_PX.0).min(SIGMA_RANGE_PX.1);
+    let sigma = from.sigma_px.clamp(SIGMA_RANGE_PX.0, SIGMA_RANGE_PX.1);
     let (lo, hi) = crate::lut::render::u_extent(model, &view);
     let length_px = (hi - lo) * start.px_per_m;
     let columns = libm::ceilf(length_px * config.columns_per_sigma / sigma);
@@ -514,7 +514,7 @@ pub fn fit<const C: usize>(
         config,
     };
     let mut p = Params::zeros();
-    p[TILT] = view.tilt_deg.max(0.0).min(MAX_TILT_DEG);
+    p[TILT] = view.tilt_deg.clamp(0.0, MAX_TILT_DEG);
     p[ROLL] = view.roll_deg;
     p[SIGMA] = sigma;
     p[SHADING] = from.contrast;
