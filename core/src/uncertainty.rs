@@ -42,6 +42,8 @@ pub struct UncertaintyConfig {
     /// model's misfit, the sky's texture and the pixels' correlation through the blur, which the
     /// covariance does not count).
     pub fit_gain: f32,
+    /// ... with at least this many px in quadrature ...
+    pub fit_min_end_sd_px: f32,
     /// ... and along the axis at least this many body diameters, in quadrature (the ends'
     /// shading and a plume's glow, which the fit models only roughly).
     pub fit_min_end_sd_diameters: f32,
@@ -55,6 +57,7 @@ impl UncertaintyConfig {
         min_end_sd_diameters: 0.08,
         residual_gain: 1.5,
         fit_gain: 3.0,
+        fit_min_end_sd_px: 0.05,
         fit_min_end_sd_diameters: 0.03,
     };
 }
@@ -110,7 +113,8 @@ pub fn end_sd(
 
 /// One sigma of an end placed by the grey-level fit `fitted` of a body `diameter_px` wide: its
 /// covariance's sigmas of the length and of the axis's angle times
-/// [`UncertaintyConfig::fit_gain`], with the floor in quadrature, and along the axis also
+/// [`UncertaintyConfig::fit_gain`], with [`UncertaintyConfig::fit_min_end_sd_px`] in
+/// quadrature, and along the axis also
 /// [`UncertaintyConfig::fit_min_end_sd_diameters`]; None where the fit has no finite covariance.
 pub fn fitted_end_sd(
     fitted: &GreyFitted,
@@ -123,7 +127,7 @@ pub fn fitted_end_sd(
     let along = config.fit_gain * fitted.length_sd_px * core::f32::consts::FRAC_1_SQRT_2;
     let across =
         config.fit_gain * fitted.turn_sd_rad * length_px * core::f32::consts::FRAC_1_SQRT_2;
-    let floor = config.min_end_sd_px;
+    let floor = config.fit_min_end_sd_px;
     let unmodelled = config.fit_min_end_sd_diameters * diameter_px;
     let sd = EndSd {
         along_px: libm::sqrtf(along * along + floor * floor + unmodelled * unmodelled),
@@ -216,7 +220,7 @@ mod tests {
         };
         let config = UncertaintyConfig {
             fit_gain: 3.0,
-            min_end_sd_px: 0.1,
+            fit_min_end_sd_px: 0.1,
             fit_min_end_sd_diameters: 0.03,
             ..UncertaintyConfig::DEFAULT
         };

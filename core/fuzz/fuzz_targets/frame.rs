@@ -82,10 +82,10 @@ enum ConfigSpec {
         /// Every tunable of the silhouette stage, in its field order.
         silhouette: [f32; 13],
         /// Every tunable of the uncertainties, in their field order.
-        uncertainty: [f32; 6],
-        /// The grey-level fit: whether it runs, then its tunables (pixels, iterations, the
-        /// rest in field order) and whether it fits the scale.
-        grey_fit: (bool, u16, u8, u8, [f32; 6], bool),
+        uncertainty: [f32; 7],
+        /// The grey-level fit: whether it runs, then its tunables (pixels, roll starts,
+        /// iterations, the rest in field order) and whether it fits the scale.
+        grey_fit: (bool, u16, u8, u8, u8, [f32; 7], bool),
         /// Every tunable of the bar search, in its field order (None: no bar search).
         bar: Option<[f32; 13]>,
         /// Every tunable of the sky corridor, in its field order (None: the tiles' sky).
@@ -273,20 +273,23 @@ fn config(spec: &ConfigSpec) -> Config {
                 min_end_sd_diameters: u[2],
                 residual_gain: u[3],
                 fit_gain: u[4],
-                fit_min_end_sd_diameters: u[5],
+                fit_min_end_sd_px: u[5],
+                fit_min_end_sd_diameters: u[6],
             },
             grey_fit: GreyFitConfig {
                 enabled: g.0,
                 max_pixels: usize::from(g.1),
-                orientation_iterations: u32::from(g.2 % 8),
-                max_iterations: u32::from(g.3 % 32),
-                columns_per_sigma: g.4[0],
-                margin_sigmas: g.4[1],
-                margin_px: g.4[2],
-                huber_sigmas: g.4[3],
-                max_scale_change: g.4[4],
-                max_shift_px: g.4[5],
-                fit_scale: g.5,
+                roll_starts: u32::from(g.2 % 16),
+                probe_iterations: u32::from(g.3 % 8),
+                max_iterations: u32::from(g.4 % 32),
+                columns_per_sigma: g.5[0],
+                margin_sigmas: g.5[1],
+                margin_px: g.5[2],
+                huber_sigmas: g.5[3],
+                max_scale_change: g.5[4],
+                max_shift_px: g.5[5],
+                orientation_margin: g.5[6],
+                fit_scale: g.6,
             },
             track: TrackConfig {
                 gate_px: t[0],

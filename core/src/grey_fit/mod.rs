@@ -79,11 +79,20 @@ pub struct GreyFitConfig {
     pub margin_px: f32,
     /// Residuals beyond this many noise sigmas count linearly (Huber).
     pub huber_sigmas: f32,
-    /// Levenberg-Marquardt's iterations from the start and from it turned end for end, to tell
-    /// the nose from the tail ...
-    pub orientation_iterations: u32,
-    /// ... and its iteration limit from the better of them.
+    /// Rolls evenly spaced over the model's distinct rolls from the table match's (a fin's place
+    /// is a local minimum of the cost; models without fins take the match's), each rendered
+    /// once from the start and from it turned end for end: the way round with the least cost
+    /// tells the nose from the tail ...
+    pub roll_starts: u32,
+    /// ... where it is lower than the other way's by more than this fraction; else both ways
+    /// go on ...
+    pub orientation_margin: f32,
+    /// ... and from it the match's roll and the other roll of least cost go this many
+    /// Levenberg-Marquardt iterations ...
+    pub probe_iterations: u32,
+    /// ... and the better goes on to this iteration limit.
     pub max_iterations: u32,
+
     /// The fitted scale stays within this fraction of the start's.
     pub max_scale_change: f32,
     /// The fitted origin stays within this many px of the start's.
@@ -102,10 +111,12 @@ impl GreyFitConfig {
         margin_sigmas: 3.0,
         margin_px: 2.0,
         huber_sigmas: 3.0,
-        orientation_iterations: 3,
+        roll_starts: 6,
+        orientation_margin: 0.2,
+        probe_iterations: 3,
         max_iterations: 12,
         max_scale_change: 0.15,
-        max_shift_px: 4.0,
+        max_shift_px: 8.0,
         fit_scale: false,
     };
 }
@@ -176,7 +187,7 @@ pub struct FitInput<'a> {
     /// The range, where it is known, m.
     pub range_m: Option<f32>,
     /// Whether a plume glows beyond the start's tail ([`crate::Silhouette::plume_at_tail`]):
-    /// the pixels behind the base are then left out, and the tail is where the start has it.
+    /// the pixels behind the base are then left out.
     pub plume_at_tail: bool,
 }
 
@@ -240,8 +251,6 @@ struct Window {
     along: (f32, f32),
     /// Half extent across, px.
     across: f32,
-    /// Pixels behind this, px along the axis from the start's origin, are left out (the plume).
-    behind: f32,
     /// Chip box holding the rectangle: columns and rows `start..end`.
     columns: (usize, usize),
     rows: (usize, usize),
@@ -252,14 +261,7 @@ struct Window {
 }
 
 impl Window {
-    fn new(
-        frame: Frame,
-        along: (f32, f32),
-        across: f32,
-        behind: f32,
-        chip: &ChipView,
-        max: usize,
-    ) -> Window {
+    fn new(frame: Frame, along: (f32, f32), across: f32, chip: &ChipView, max: usize) -> Window {
         let corners = [
             (along.0, -across),
             (along.0, across),
@@ -281,7 +283,6 @@ impl Window {
             frame,
             along,
             across,
-            behind,
             columns,
             rows,
             stride: 1,
@@ -305,10 +306,7 @@ impl Window {
             for x in (self.columns.0..self.columns.1).step_by(self.stride) {
                 let d = ImagePoint::new(x as f32, y as f32) - self.frame.origin;
                 let (t, s) = (d.dot(self.frame.dir), d.dot(self.frame.dir.perpendicular()));
-                if t >= self.along.0.max(self.behind)
-                    && t <= self.along.1
-                    && libm::fabsf(s) <= self.across
-                {
+                if t >= self.along.0 && t <= self.along.1 && libm::fabsf(s) <= self.across {
                     f(x, y);
                 }
             }
@@ -358,6 +356,55 @@ impl<const C: usize> GreyProblem<'_, C> {
         Outline::build(self.model, &View { tilt_deg, roll_deg }, self.columns)
     }
 
+    /// Chip pixel `(x, y)` less the sky model, and the sky plane's basis there.
+    fn data(&self, x: usize, y: usize) -> (f32, [f32; 3]) {
+        let w = &self.window;
+        let (xf, yf) = (x as f32, y as f32);
+        let data = f32::from(self.input.chip.get(x, y)) - self.input.background.at(xf, yf);
+        let inv_radius = 1.0 / w.radius;
+        let plane = [
+            1.0,
+            (xf - w.centre.x) * inv_radius,
+            (yf - w.centre.y) * inv_radius,
+        ];
+        (data, plane)
+    }
+
+    /// The Huber cost of residual `r` and its weight in the normal equations.
+    fn huber(&self, r: f32) -> (f32, f32) {
+        let a = libm::fabsf(r);
+        if a <= self.huber {
+            (r * r, 1.0)
+        } else {
+            (
+                2.0 * self.huber * a - self.huber * self.huber,
+                self.huber / a,
+            )
+        }
+    }
+
+    /// The model's image at `p` less the sky plane: the body's contrast at `(x, y)` and its
+    /// basis.
+    fn sky_and_body(p: &Params, plane: &[f32; 3], basis: &[f32; 3]) -> (f32, f32) {
+        let sky = p[PLANE] * plane[0] + p[PLANE + 1] * plane[1] + p[PLANE + 2] * plane[2];
+        let body = p[SHADING] * basis[0] + p[SHADING + 1] * basis[1] + p[SHADING + 2] * basis[2];
+        (sky, body)
+    }
+
+    /// The cost alone at `p` (no derivatives: one rendering of the window).
+    fn cost(&self, p: &Params) -> Option<f32> {
+        let outline = self.outline(p[TILT], p[ROLL])?;
+        let frame = self.frame(p);
+        let mut cost = 0.0;
+        self.window.for_each(|x, y| {
+            let (data, plane) = self.data(x, y);
+            let b = Self::basis(&frame, &outline, x as f32, y as f32, p[SIGMA]);
+            let (sky, body) = Self::sky_and_body(p, &plane, &b);
+            cost += self.huber(data - body - sky).0;
+        });
+        cost.is_finite().then_some(cost)
+    }
+
     /// The body's basis at chip pixel `(x, y)` for placement `frame`, outline and blur (px).
     fn basis(frame: &Frame, outline: &Outline<C>, x: f32, y: f32, sigma_px: f32) -> [f32; 3] {
         let (u, v) = frame.local(x, y);
@@ -381,22 +428,13 @@ impl<const C: usize> Problem<PARAMS> for GreyProblem<'_, C> {
             *frame = self.frame(&q);
         }
         let sigma = p[SIGMA];
-        let shading = [p[SHADING], p[SHADING + 1], p[SHADING + 2]];
-        let contrast = |b: [f32; 3]| shading[0] * b[0] + shading[1] * b[1] + shading[2] * b[2];
+        let contrast = |b: [f32; 3]| Self::sky_and_body(p, &[0.0; 3], &b).1;
         let mut normal = Normal::<PARAMS>::zeros();
-        let w = &self.window;
-        let inv_radius = 1.0 / w.radius;
-        w.for_each(|x, y| {
+        self.window.for_each(|x, y| {
+            let (data, plane) = self.data(x, y);
             let (xf, yf) = (x as f32, y as f32);
-            let data = f32::from(self.input.chip.get(x, y)) - self.input.background.at(xf, yf);
-            let plane = [
-                1.0,
-                (xf - w.centre.x) * inv_radius,
-                (yf - w.centre.y) * inv_radius,
-            ];
-            let sky = p[PLANE] * plane[0] + p[PLANE + 1] * plane[1] + p[PLANE + 2] * plane[2];
             let b0 = Self::basis(&frames[0], &base, xf, yf, sigma);
-            let body = contrast(b0);
+            let (sky, body) = Self::sky_and_body(p, &plane, &b0);
             let mut g = Params::zeros();
             for (k, frame) in frames.iter().enumerate().skip(1) {
                 if k - 1 == LOG_SCALE && self.scale_held {
@@ -418,15 +456,7 @@ impl<const C: usize> Problem<PARAMS> for GreyProblem<'_, C> {
                 g[PLANE + i] = plane[i];
             }
             let r = data - body - sky;
-            let a = libm::fabsf(r);
-            let (cost, weight) = if a <= self.huber {
-                (r * r, 1.0)
-            } else {
-                (
-                    2.0 * self.huber * a - self.huber * self.huber,
-                    self.huber / a,
-                )
-            };
+            let (cost, weight) = self.huber(r);
             normal.cost += cost;
             crate::math::accumulate(&mut normal.jtj, &mut normal.jtr, &g, weight, r);
         });
@@ -482,26 +512,26 @@ pub fn fit<const C: usize>(
     // Symmetric about the origin, so that the reversed start sums over the same pixels.
     let reach = libm::fabsf(lo).max(libm::fabsf(hi)) * start.px_per_m + margin;
     let across = first.half_span_m() * start.px_per_m + margin;
-    let behind = if input.plume_at_tail {
-        -0.5 * model.length_m * libm::cosf(view.tilt_deg * crate::pose::RAD) * start.px_per_m
-    } else {
-        f32::NEG_INFINITY
+    // Where a plume glows beyond the tail, the pixels beyond the base are left out: beyond both
+    // ends while nose and tail are told apart (so that both ways round sum over the same
+    // pixels), then beyond the chosen tail.
+    let base_px =
+        0.5 * model.length_m * libm::cosf(view.tilt_deg * crate::pose::RAD) * start.px_per_m;
+    let window = |start: Frame, along: (f32, f32)| {
+        Window::new(start, along, across, input.chip, config.max_pixels)
     };
-    let window = Window::new(
-        start,
-        (-reach, reach),
-        across,
-        behind,
-        input.chip,
-        config.max_pixels,
-    );
-    let pixels = window.count();
+    let probe_window = if input.plume_at_tail {
+        window(start, (-base_px, base_px))
+    } else {
+        window(start, (-reach, reach))
+    };
+    let pixels = probe_window.count();
     if pixels < 4 * PARAMS {
         return Err(GreyFitError::TooFewPixels);
     }
     let mut step = STEP;
     step[2] /= (0.5 * length_px).max(1.0);
-    let problem = |start: Frame| GreyProblem::<C> {
+    let problem_at = |start: Frame, window: Window| GreyProblem::<C> {
         input,
         model,
         start,
@@ -523,28 +553,76 @@ pub fn fit<const C: usize>(
         relative_tolerance: 1e-5,
         ..least_squares::Config::DEFAULT
     };
-    // Nose and tail: a few iterations from the start and from it turned end for end; the
-    // better one goes on.
-    let probe = solver(config.orientation_iterations);
+    let probe = solver(config.probe_iterations);
     let reversed = Frame {
         dir: -start.dir,
         ..start
     };
-    let starts = if input.plume_at_tail {
-        &[start][..]
+    // The fins' silhouette repeats every `distinct_roll_deg`, and the cost has a minimum near
+    // each fin's place: rolls evenly spaced from the match's.
+    let starts = if model.fins().is_some() {
+        config.roll_starts.max(1)
     } else {
-        &[start, reversed][..]
+        1
     };
-    let (problem, probed) = starts
-        .iter()
-        .copied()
-        .filter_map(|s| {
-            let problem = problem(s);
-            let probed = least_squares::minimize(&problem, p, &probe)?;
+    let spacing = model.distinct_roll_deg() / starts as f32;
+    let rolled = |i: u32| {
+        let mut q = p;
+        q[ROLL] += spacing * i as f32;
+        q
+    };
+    // Nose and tail: the way round whose least cost alone over the rolls is lower goes on. With
+    // it, its roll whose cost alone is least among the others, and the match's.
+    let survey = |s: Frame| {
+        let problem = problem_at(s, probe_window);
+        let mut least = f32::INFINITY;
+        let mut other: Option<(u32, f32)> = None;
+        for i in 0..starts {
+            let Some(cost) = problem.cost(&rolled(i)) else {
+                continue;
+            };
+            least = least.min(cost);
+            if i > 0 && other.is_none_or(|(_, c)| cost < c) {
+                other = Some((i, cost));
+            }
+        }
+        (problem, least, other.map(|(i, _)| i))
+    };
+    // The match's roll and the other both go a few iterations: the cost at the match's tilt
+    // and scale alone misleads where the fins barely show (a 4-px body, a plume's glow).
+    let probe_rolls = |problem: &GreyProblem<C>, other: Option<u32>| {
+        [Some(p), other.map(rolled)]
+            .into_iter()
+            .flatten()
+            .filter_map(|q| least_squares::minimize(problem, q, &probe))
+            .min_by(|a, b| a.cost.total_cmp(&b.cost))
+    };
+    let (forward, backward) = (survey(start), survey(reversed));
+    let decisive =
+        forward.1.min(backward.1) * (1.0 + config.orientation_margin) < forward.1.max(backward.1);
+    let ways = if !decisive {
+        [Some(forward), Some(backward)]
+    } else if backward.1 < forward.1 {
+        [None, Some(backward)]
+    } else {
+        [Some(forward), None]
+    };
+    let (problem, probed) = ways
+        .into_iter()
+        .flatten()
+        .filter_map(|(problem, _, other)| {
+            let probed = probe_rolls(&problem, other)?;
             Some((problem, probed))
         })
         .min_by(|a, b| a.1.cost.total_cmp(&b.1.cost))
         .ok_or(GreyFitError::NoStart)?;
+    let problem = if input.plume_at_tail {
+        let chosen = problem.start;
+        problem_at(chosen, window(chosen, (-base_px, reach)))
+    } else {
+        problem
+    };
+    let pixels = problem.window.count();
     let solution = least_squares::minimize(&problem, probed.params, &solver(config.max_iterations))
         .ok_or(GreyFitError::NoStart)?;
     let p = solution.params;
