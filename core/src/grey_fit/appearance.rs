@@ -16,6 +16,9 @@ use crate::math::normal;
 
 /// Columns farther than this many sigmas along the axis are not summed.
 const REACH: f32 = 4.0;
+/// A column whose edges both lie farther than this many sigmas to one side of the point adds
+/// nothing (the normal's tail beyond it is 3e-7).
+const EDGE_REACH: f32 = 5.0;
 
 /// The coefficients of `c0, c1, c2` in the blurred contrast at silhouette-frame point `(u, v)`,
 /// m, for a Gaussian blur of `sigma` m (positive).
@@ -26,8 +29,12 @@ pub fn body_basis<const C: usize>(outline: &Outline<C>, u: f32, v: f32, sigma: f
         let Some((lower, upper)) = outline.edges(j) else {
             continue;
         };
-        let weight = normal::pdf((outline.u_m(j) - u) * inv_sigma);
         let (alpha, beta) = ((lower - v) * inv_sigma, (upper - v) * inv_sigma);
+        if alpha > EDGE_REACH || beta < -EDGE_REACH {
+            // Beyond the column's reach across: nothing of it is blurred this far.
+            continue;
+        }
+        let weight = normal::pdf((outline.u_m(j) - u) * inv_sigma);
         let (cdf_a, pdf_a) = normal::cdf_pdf(alpha);
         let (cdf_b, pdf_b) = normal::cdf_pdf(beta);
         // Moments of the blur's weight over the column: ∫ x^k phi(x) dx over alpha..beta.
