@@ -9,8 +9,10 @@
 //! scale where a diameter of 4 px cannot, and what separates the blur from the width.
 //!
 //! The fit is Levenberg-Marquardt ([`crate::math::least_squares`]) over 13 parameters: 7 of the
-//! geometry and optics, with forward-difference derivatives (each evaluation renders the window
-//! 8 times), and 6 that the image is linear in (the body's shading quadratic and the sky's plane).
+//! geometry and optics (the placement's and the blur's derivatives analytic,
+//! [`appearance::body_image`]; the tilt's and the roll's by forward difference, so each
+//! evaluation renders the window 3 times), and 6 that the image is linear in (the body's shading
+//! quadratic and the sky's plane).
 //! Residuals beyond [`GreyFitConfig::huber_sigmas`] noise sigmas count linearly (Huber), so a
 //! star, a filament or plume glow in the window pulls less. Where the range is known the scale is
 //! held at it. The window's pixels are chosen once, from the start, so that every evaluation
@@ -39,8 +41,6 @@ use outline::Outline;
 type Params = SVector<f32, PARAMS>;
 /// Parameters.
 const PARAMS: usize = 13;
-/// Parameters rendered with a derivative by forward difference.
-const RENDERED: usize = 7;
 /// Index of the log scale.
 const LOG_SCALE: usize = 3;
 /// Index of the tilt.
@@ -54,9 +54,11 @@ const SHADING: usize = 7;
 /// Index of the sky's level.
 const PLANE: usize = 10;
 
-/// Forward-difference steps of the rendered parameters, in their units (the axis's turn is
-/// scaled by the body's half length in px at the start).
-const STEP: [f32; RENDERED] = [0.05, 0.05, 0.05, 0.002, 0.5, 1.0, 0.02];
+/// Forward-difference steps of the tilt and the roll, deg (the outline's derivatives in them are
+/// rendered; those in the placement and the blur are analytic, [`appearance::body_image`]).
+const TILT_STEP_DEG: f32 = 0.5;
+/// See [`TILT_STEP_DEG`].
+const ROLL_STEP_DEG: f32 = 1.0;
 
 /// The smallest and largest blur sigma fitted, px.
 const SIGMA_RANGE_PX: (f32, f32) = (0.3, 4.0);
@@ -328,8 +330,6 @@ struct GreyProblem<'a, const C: usize> {
     window: Window,
     /// Outline columns.
     columns: usize,
-    /// Forward-difference steps.
-    step: [f32; RENDERED],
     /// Whether the scale is held (the range known).
     scale_held: bool,
     /// Whether the roll changes the outline (the model has fins).
@@ -415,44 +415,48 @@ impl<const C: usize> GreyProblem<'_, C> {
 impl<const C: usize> Problem<PARAMS> for GreyProblem<'_, C> {
     fn evaluate(&self, p: &Params) -> Option<Normal<PARAMS>> {
         let base = self.outline(p[TILT], p[ROLL])?;
-        let tilted = self.outline(p[TILT] + self.step[TILT], p[ROLL])?;
+        let tilted = self.outline(p[TILT] + TILT_STEP_DEG, p[ROLL])?;
         let rolled = if self.has_fins {
-            Some(self.outline(p[TILT], p[ROLL] + self.step[ROLL])?)
+            Some(self.outline(p[TILT], p[ROLL] + ROLL_STEP_DEG)?)
         } else {
             None
         };
-        let mut frames = [self.frame(p); 5];
-        for (k, frame) in frames.iter_mut().enumerate().skip(1) {
-            let mut q = *p;
-            q[k - 1] += self.step[k - 1];
-            *frame = self.frame(&q);
-        }
-        let sigma = p[SIGMA];
+        let frame = self.frame(p);
+        let sigma_m = p[SIGMA] / frame.px_per_m;
+        let shading = [p[SHADING], p[SHADING + 1], p[SHADING + 2]];
         let contrast = |b: [f32; 3]| Self::sky_and_body(p, &[0.0; 3], &b).1;
+        // The start's axis and its normal in the current one's frame: how moving the origin
+        // along and across the start's axis moves a pixel's (u, v).
+        let (d0, n0) = (self.start.dir, self.start.dir.perpendicular());
+        let (d, n) = (frame.dir, frame.dir.perpendicular());
+        let inv_k = 1.0 / frame.px_per_m;
+        let along = (d0.dot(d) * inv_k, d0.dot(n) * inv_k);
+        let across = (n0.dot(d) * inv_k, n0.dot(n) * inv_k);
         let mut normal = Normal::<PARAMS>::zeros();
         self.window.for_each(|x, y| {
             let (data, plane) = self.data(x, y);
-            let (xf, yf) = (x as f32, y as f32);
-            let b0 = Self::basis(&frames[0], &base, xf, yf, sigma);
-            let (sky, body) = Self::sky_and_body(p, &plane, &b0);
+            let (u, v) = frame.local(x as f32, y as f32);
+            let image = appearance::body_image(&base, u, v, sigma_m, shading);
+            let (sky, body) = Self::sky_and_body(p, &plane, &image.basis);
+            let (d_u, d_v, d_sigma) = (image.d_u, image.d_v, image.d_sigma);
             let mut g = Params::zeros();
-            for (k, frame) in frames.iter().enumerate().skip(1) {
-                if k - 1 == LOG_SCALE && self.scale_held {
-                    continue;
-                }
-                let bk = Self::basis(frame, &base, xf, yf, sigma);
-                g[k - 1] = (contrast(bk) - body) / self.step[k - 1];
+            g[0] = -(d_u * along.0 + d_v * along.1);
+            g[1] = -(d_u * across.0 + d_v * across.1);
+            // Turning the axis about the origin moves (u, v) by (v, -u) per radian.
+            g[2] = d_u * v - d_v * u;
+            if !self.scale_held {
+                // Growing the scale shrinks (u, v) and the blur in metres alike.
+                g[LOG_SCALE] = -(d_u * u + d_v * v + d_sigma * sigma_m);
             }
-            let bt = Self::basis(&frames[0], &tilted, xf, yf, sigma);
-            g[TILT] = (contrast(bt) - body) / self.step[TILT];
+            g[SIGMA] = d_sigma * inv_k;
+            let bt = appearance::body_basis(&tilted, u, v, sigma_m);
+            g[TILT] = (contrast(bt) - body) / TILT_STEP_DEG;
             if let Some(rolled) = &rolled {
-                let br = Self::basis(&frames[0], rolled, xf, yf, sigma);
-                g[ROLL] = (contrast(br) - body) / self.step[ROLL];
+                let br = appearance::body_basis(rolled, u, v, sigma_m);
+                g[ROLL] = (contrast(br) - body) / ROLL_STEP_DEG;
             }
-            let bs = Self::basis(&frames[0], &base, xf, yf, sigma + self.step[SIGMA]);
-            g[SIGMA] = (contrast(bs) - body) / self.step[SIGMA];
             for i in 0..3 {
-                g[SHADING + i] = b0[i];
+                g[SHADING + i] = image.basis[i];
                 g[PLANE + i] = plane[i];
             }
             let r = data - body - sky;
@@ -529,15 +533,12 @@ pub fn fit<const C: usize>(
     if pixels < 4 * PARAMS {
         return Err(GreyFitError::TooFewPixels);
     }
-    let mut step = STEP;
-    step[2] /= (0.5 * length_px).max(1.0);
     let problem_at = |start: Frame, window: Window| GreyProblem::<C> {
         input,
         model,
         start,
         window,
         columns: first.columns(),
-        step,
         scale_held: input.range_m.is_some() || !config.fit_scale,
         has_fins: model.fins().is_some(),
         huber: config.huber_sigmas * input.background.sigma().max(f32::MIN_POSITIVE),
