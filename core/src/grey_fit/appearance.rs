@@ -20,6 +20,11 @@ const REACH: f32 = 4.0;
 /// nothing (the normal's tail beyond it is 3e-7).
 const EDGE_REACH: f32 = 5.0;
 
+/// The contrast `c0 + c1 w + c2 w²` (`shading`) from its coefficients `basis`, grey levels.
+pub fn contrast(shading: [f32; 3], basis: [f32; 3]) -> f32 {
+    shading[0] * basis[0] + shading[1] * basis[1] + shading[2] * basis[2]
+}
+
 /// One column's share of the blurred contrast at a point.
 struct Share {
     /// The Gaussian's weight along the axis, and the column's offset from the point in sigmas.
@@ -139,7 +144,7 @@ pub fn body_image<const C: usize>(
     shading: [f32; 3],
 ) -> BodyImage {
     let inv_sigma = 1.0 / sigma;
-    let contrast = |t: [f32; 3]| shading[0] * t[0] + shading[1] * t[1] + shading[2] * t[2];
+    let contrast = |t: [f32; 3]| contrast(shading, t);
     let (mut basis, mut d_u, mut d_v, mut d_sigma) = ([0.0f32; 3], 0.0, 0.0, 0.0);
     for c in shares(outline, u, v, sigma) {
         let t = c.terms();
@@ -249,10 +254,8 @@ mod tests {
         };
         let outline = Outline::<512>::build(&reference(), &view, 500).unwrap();
         let shading = [-120.0, 20.0, -15.0];
-        let contrast = |u: f32, v: f32, sigma: f32| {
-            let b = body_basis(&outline, u, v, sigma);
-            shading[0] * b[0] + shading[1] * b[1] + shading[2] * b[2]
-        };
+        let contrast =
+            |u: f32, v: f32, sigma: f32| contrast(shading, body_basis(&outline, u, v, sigma));
         let sigma = 0.012;
         let h = 1e-4;
         for (u, v) in [

@@ -25,6 +25,7 @@ pub mod outline;
 use crate::camera::Camera;
 use crate::chip::ChipView;
 use crate::config::BodyPolarity;
+use crate::extremes::Axis;
 use crate::lut::render::{Placement, View};
 use crate::math::least_squares::{self, Normal, Problem};
 use crate::model::ProjectileModel;
@@ -226,21 +227,27 @@ impl FitStart {
     }
 }
 
-/// The silhouette's placement on the chip at parameters `p`.
+/// The silhouette's placement on the chip at parameters `p`: the projected axis through the
+/// body origin (`Axis::centre`), tail to nose, and the scale.
 #[derive(Debug, Clone, Copy)]
 struct Frame {
-    origin: ImagePoint,
-    dir: ImagePoint,
+    axis: Axis,
     px_per_m: f32,
 }
 
 impl Frame {
     /// Silhouette-frame coordinates of chip point `(x, y)`, m.
     fn local(&self, x: f32, y: f32) -> (f32, f32) {
-        let d = ImagePoint::new(x, y) - self.origin;
+        let (u, v) = self.axis.local(x, y);
         let inv = 1.0 / self.px_per_m;
-        (d.dot(self.dir) * inv, d.dot(self.dir.perpendicular()) * inv)
+        (u * inv, v * inv)
     }
+}
+
+/// The base centre's distance from the body origin along the projected axis, px, for a body of
+/// `model` at `tilt_deg` and `px_per_m`: half its length, foreshortened.
+fn base_distance_px(model: &ProjectileModel, tilt_deg: f32, px_per_m: f32) -> f32 {
+    0.5 * model.length_m * libm::cosf(tilt_deg * crate::pose::RAD) * px_per_m
 }
 
 /// The pixels summed: those on a lattice of `stride` px within a rectangle along the start's
@@ -257,6 +264,8 @@ struct Window {
     columns: (usize, usize),
     rows: (usize, usize),
     stride: usize,
+    /// Pixels summed.
+    pixels: usize,
     /// The plane's centre and scale, chip px.
     centre: ImagePoint,
     radius: f32,
@@ -270,7 +279,7 @@ impl Window {
             (along.1, -across),
             (along.1, across),
         ]
-        .map(|(t, s)| frame.origin + frame.dir * t + frame.dir.perpendicular() * s);
+        .map(|(t, s)| frame.axis.point(t) + frame.axis.dir.perpendicular() * s);
         let (w, h) = (chip.width() as f32, chip.height() as f32);
         let span = |f: fn(&ImagePoint) -> f32, limit: f32| {
             let lo = corners.iter().map(f).fold(f32::INFINITY, f32::min);
@@ -288,6 +297,7 @@ impl Window {
             columns,
             rows,
             stride: 1,
+            pixels: 0,
             centre: ImagePoint::new(
                 0.5 * (columns.0 + columns.1) as f32,
                 0.5 * (rows.0 + rows.1) as f32,
@@ -299,6 +309,7 @@ impl Window {
             window.stride =
                 (libm::ceilf(libm::sqrtf(count as f32 / max.max(1) as f32)) as usize).max(1);
         }
+        window.pixels = window.count();
         window
     }
 
@@ -306,8 +317,7 @@ impl Window {
     fn for_each(&self, mut f: impl FnMut(usize, usize)) {
         for y in (self.rows.0..self.rows.1).step_by(self.stride) {
             for x in (self.columns.0..self.columns.1).step_by(self.stride) {
-                let d = ImagePoint::new(x as f32, y as f32) - self.frame.origin;
-                let (t, s) = (d.dot(self.frame.dir), d.dot(self.frame.dir.perpendicular()));
+                let (t, s) = self.frame.axis.local(x as f32, y as f32);
                 if t >= self.along.0 && t <= self.along.1 && libm::fabsf(s) <= self.across {
                     f(x, y);
                 }
@@ -343,11 +353,13 @@ impl<const C: usize> GreyProblem<'_, C> {
     /// The placement at `p`.
     fn frame(&self, p: &Params) -> Frame {
         let (sin, cos) = (libm::sinf(p[2]), libm::cosf(p[2]));
-        let d0 = self.start.dir;
+        let d0 = self.start.axis.dir;
         let dir = ImagePoint::new(cos * d0.x - sin * d0.y, sin * d0.x + cos * d0.y);
         Frame {
-            origin: self.start.origin + d0 * p[0] + d0.perpendicular() * p[1],
-            dir,
+            axis: Axis {
+                centre: self.start.axis.centre + d0 * p[0] + d0.perpendicular() * p[1],
+                dir,
+            },
             px_per_m: self.start.px_per_m * libm::expf(p[LOG_SCALE]),
         }
     }
@@ -383,32 +395,30 @@ impl<const C: usize> GreyProblem<'_, C> {
         }
     }
 
-    /// The model's image at `p` less the sky plane: the body's contrast at `(x, y)` and its
-    /// basis.
-    fn sky_and_body(p: &Params, plane: &[f32; 3], basis: &[f32; 3]) -> (f32, f32) {
-        let sky = p[PLANE] * plane[0] + p[PLANE + 1] * plane[1] + p[PLANE + 2] * plane[2];
-        let body = p[SHADING] * basis[0] + p[SHADING + 1] * basis[1] + p[SHADING + 2] * basis[2];
-        (sky, body)
+    /// The body's shading `c0, c1, c2` at `p`.
+    fn shading(p: &Params) -> [f32; 3] {
+        [p[SHADING], p[SHADING + 1], p[SHADING + 2]]
+    }
+
+    /// The sky plane at `p` where its basis is `plane`, grey levels.
+    fn sky(p: &Params, plane: &[f32; 3]) -> f32 {
+        p[PLANE] * plane[0] + p[PLANE + 1] * plane[1] + p[PLANE + 2] * plane[2]
     }
 
     /// The cost alone at `p` (no derivatives: one rendering of the window).
     fn cost(&self, p: &Params) -> Option<f32> {
         let outline = self.outline(p[TILT], p[ROLL])?;
         let frame = self.frame(p);
+        let sigma_m = p[SIGMA] / frame.px_per_m;
         let mut cost = 0.0;
         self.window.for_each(|x, y| {
             let (data, plane) = self.data(x, y);
-            let b = Self::basis(&frame, &outline, x as f32, y as f32, p[SIGMA]);
-            let (sky, body) = Self::sky_and_body(p, &plane, &b);
-            cost += self.huber(data - body - sky).0;
+            let (u, v) = frame.local(x as f32, y as f32);
+            let b = appearance::body_basis(&outline, u, v, sigma_m);
+            let body = appearance::contrast(Self::shading(p), b);
+            cost += self.huber(data - body - Self::sky(p, &plane)).0;
         });
         cost.is_finite().then_some(cost)
-    }
-
-    /// The body's basis at chip pixel `(x, y)` for placement `frame`, outline and blur (px).
-    fn basis(frame: &Frame, outline: &Outline<C>, x: f32, y: f32, sigma_px: f32) -> [f32; 3] {
-        let (u, v) = frame.local(x, y);
-        appearance::body_basis(outline, u, v, sigma_px / frame.px_per_m)
     }
 }
 
@@ -423,12 +433,12 @@ impl<const C: usize> Problem<PARAMS> for GreyProblem<'_, C> {
         };
         let frame = self.frame(p);
         let sigma_m = p[SIGMA] / frame.px_per_m;
-        let shading = [p[SHADING], p[SHADING + 1], p[SHADING + 2]];
-        let contrast = |b: [f32; 3]| Self::sky_and_body(p, &[0.0; 3], &b).1;
+        let shading = Self::shading(p);
+        let contrast = |b: [f32; 3]| appearance::contrast(shading, b);
         // The start's axis and its normal in the current one's frame: how moving the origin
         // along and across the start's axis moves a pixel's (u, v).
-        let (d0, n0) = (self.start.dir, self.start.dir.perpendicular());
-        let (d, n) = (frame.dir, frame.dir.perpendicular());
+        let (d0, n0) = (self.start.axis.dir, self.start.axis.dir.perpendicular());
+        let (d, n) = (frame.axis.dir, frame.axis.dir.perpendicular());
         let inv_k = 1.0 / frame.px_per_m;
         let along = (d0.dot(d) * inv_k, d0.dot(n) * inv_k);
         let across = (n0.dot(d) * inv_k, n0.dot(n) * inv_k);
@@ -437,7 +447,7 @@ impl<const C: usize> Problem<PARAMS> for GreyProblem<'_, C> {
             let (data, plane) = self.data(x, y);
             let (u, v) = frame.local(x as f32, y as f32);
             let image = appearance::body_image(&base, u, v, sigma_m, shading);
-            let (sky, body) = Self::sky_and_body(p, &plane, &image.basis);
+            let (sky, body) = (Self::sky(p, &plane), contrast(image.basis));
             let (d_u, d_v, d_sigma) = (image.d_u, image.d_v, image.d_sigma);
             let mut g = Params::zeros();
             g[0] = -(d_u * along.0 + d_v * along.1);
@@ -498,8 +508,10 @@ pub fn fit<const C: usize>(
     config: &GreyFitConfig,
 ) -> Result<GreyFitted, GreyFitError> {
     let start = Frame {
-        origin: from.placement.origin,
-        dir: from.placement.dir,
+        axis: Axis {
+            centre: from.placement.origin,
+            dir: from.placement.dir,
+        },
         px_per_m: from.placement.px_per_unit,
     };
     let view = from.view;
@@ -519,8 +531,7 @@ pub fn fit<const C: usize>(
     // Where a plume glows beyond the tail, the pixels beyond the base are left out: beyond both
     // ends while nose and tail are told apart (so that both ways round sum over the same
     // pixels), then beyond the chosen tail.
-    let base_px =
-        0.5 * model.length_m * libm::cosf(view.tilt_deg * crate::pose::RAD) * start.px_per_m;
+    let base_px = base_distance_px(model, view.tilt_deg, start.px_per_m);
     let window = |start: Frame, along: (f32, f32)| {
         Window::new(start, along, across, input.chip, config.max_pixels)
     };
@@ -529,8 +540,7 @@ pub fn fit<const C: usize>(
     } else {
         window(start, (-reach, reach))
     };
-    let pixels = probe_window.count();
-    if pixels < 4 * PARAMS {
+    if probe_window.pixels < 4 * PARAMS {
         return Err(GreyFitError::TooFewPixels);
     }
     let problem_at = |start: Frame, window: Window| GreyProblem::<C> {
@@ -556,7 +566,10 @@ pub fn fit<const C: usize>(
     };
     let probe = solver(config.probe_iterations);
     let reversed = Frame {
-        dir: -start.dir,
+        axis: Axis {
+            dir: -start.axis.dir,
+            ..start.axis
+        },
         ..start
     };
     // The fins' silhouette repeats every `distinct_roll_deg`, and the cost has a minimum near
@@ -623,7 +636,7 @@ pub fn fit<const C: usize>(
     } else {
         problem
     };
-    let pixels = problem.window.count();
+    let pixels = problem.window.pixels;
     let solution = least_squares::minimize(&problem, probed.params, &solver(config.max_iterations))
         .ok_or(GreyFitError::NoStart)?;
     let p = solution.params;
@@ -640,30 +653,27 @@ pub fn fit<const C: usize>(
         tilt_deg: p[TILT],
         roll_deg: p[ROLL],
     };
-    let half = 0.5 * model.length_m * libm::cosf(p[TILT] * crate::pose::RAD) * frame.px_per_m;
+    let half = base_distance_px(model, p[TILT], frame.px_per_m);
     let o = ImagePoint::of_pixel(input.origin);
-    let ends = [
-        o + frame.origin + frame.dir * half,
-        o + frame.origin - frame.dir * half,
-    ];
+    let (centre, dir) = (frame.axis.centre, frame.axis.dir);
+    let ends = [o + centre + dir * half, o + centre - dir * half];
     let range_m = match input.range_m {
         Some(r) => r,
-        None => 1.0 / camera.normalized_length(frame.px_per_m, frame.dir.perpendicular().into()),
+        None => {
+            1.0 / camera.normalized_length(frame.px_per_m, frame.axis.dir.perpendicular().into())
+        }
     };
     // The parameters' covariance: the residual variance times the inverse normal matrix.
-    let covariance = problem
-        .evaluate(&p)
-        .and_then(|n| {
-            let mut jtj = n.jtj;
-            // A parameter the image does not depend on (the scale where held, the roll without
-            // fins) is held.
-            for k in 0..PARAMS {
-                if let Some(d) = jtj.get_mut((k, k)).filter(|d| **d <= 0.0) {
-                    *d = 1.0;
-                }
-            }
-            jtj.cholesky()
-        })
+    let mut jtj = solution.jtj;
+    // A parameter the image does not depend on (the scale where held, the roll without fins) is
+    // held.
+    for k in 0..PARAMS {
+        if let Some(d) = jtj.get_mut((k, k)).filter(|d| **d <= 0.0) {
+            *d = 1.0;
+        }
+    }
+    let covariance = jtj
+        .cholesky()
         .map(|c| c.inverse() * (solution.cost / (pixels as f32 - PARAMS as f32).max(1.0)));
     let var = |a: usize, b: usize| covariance.map_or(f32::NAN, |c| c[(a, b)]);
     let scale_sd = if problem.scale_held {
@@ -706,8 +716,10 @@ mod tests {
         let model = reference();
         let outline = Outline::<512>::build(&model, &truth.view, 400).unwrap();
         let frame = Frame {
-            origin: truth.placement.origin,
-            dir: truth.placement.dir,
+            axis: Axis {
+                centre: truth.placement.origin,
+                dir: truth.placement.dir,
+            },
             px_per_m: truth.placement.px_per_unit,
         };
         let mut noise_values = crate::testing::noise_sequence(SIDE * SIDE, 7);

@@ -139,6 +139,8 @@ pub struct Solution<const N: usize> {
     pub params: SVector<f32, N>,
     /// The cost there (finite).
     pub cost: f32,
+    /// `JᵀWJ` there (complete), for the parameters' covariance.
+    pub jtj: SMatrix<f32, N, N>,
     /// Iterations spent.
     pub iterations: u32,
     /// Why it stopped.
@@ -197,6 +199,7 @@ pub fn minimize<const N: usize>(
     Some(Solution {
         params: p,
         cost: at_p.cost,
+        jtj: at_p.jtj,
         iterations,
         stop,
     })
