@@ -58,16 +58,11 @@ fn check_firmware(clip: &Path, lut: &str, dir: &Path) -> anyhow::Result<()> {
         std::fs::remove_dir_all(dir)?;
     }
     let host_dir = dir.join("host");
+    // The firmware's configuration: without the grey-level fit.
     run(&RunArgs {
-        clips: vec![clip.clone()],
-        out: host_dir.clone(),
-        range: RangeArg::Auto,
-        save_masks: false,
         lut: lut.into(),
-        refine: imade_host::run::RefineChoice(None),
-        range_smoothing: imade_host::run::SmoothingArg::default(),
-        smooth: false,
         no_grey_fit: true,
+        ..imade_tests::run_args(&clip, RangeArg::Auto, &host_dir)
     })?;
     let host_csv = host_dir.join("results.csv");
     let packed = dir.join("clip.pack");

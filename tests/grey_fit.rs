@@ -4,25 +4,19 @@
 //! range.
 
 use imade_host::eval::paper::Parameter;
-use imade_host::run::{RangeArg, RefineChoice, RunArgs, SmoothingArg};
+use imade_host::run::{RangeArg, RunArgs};
 use std::path::Path;
 
 /// Median pitch and best-of-two yaw errors, deg/km, of `clip` run with or without the fit.
 fn attitude_errors(clip: &str, range: RangeArg, grey_fit: bool) -> (f64, f64) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let out = root.join(format!(
+        "target/tmp/grey-fit-{clip}-{}-{grey_fit}",
+        range.name()
+    ));
     let evaluation = imade_tests::evaluate_run(RunArgs {
-        clips: vec![root.join("fixtures").join(clip)],
-        out: root.join(format!(
-            "target/tmp/grey-fit-{clip}-{}-{grey_fit}",
-            range.name()
-        )),
-        range,
-        save_masks: false,
-        lut: "bundled".into(),
-        refine: RefineChoice(None),
-        range_smoothing: SmoothingArg::default(),
-        smooth: false,
         no_grey_fit: !grey_fit,
+        ..imade_tests::run_args(&root.join("fixtures").join(clip), range, &out)
     });
     let pose = &evaluation.pose;
     assert_eq!(pose.frames_with_pose, pose.frames_with_truth, "{clip}");

@@ -43,6 +43,27 @@ pub fn bundled_table() -> Table<'static> {
         .expect("the reference model carries its table")
 }
 
+/// `imade run`'s arguments for `clip` alone into `out` with the range use `range`, the rest as
+/// the command line's defaults give them (the bundled model, no masks, no shape-guided loop,
+/// the motion model, causal, the grey-level fit on); a test changes what it varies.
+pub fn run_args(
+    clip: &Path,
+    range: imade_host::run::RangeArg,
+    out: &Path,
+) -> imade_host::run::RunArgs {
+    imade_host::run::RunArgs {
+        clips: vec![clip.to_path_buf()],
+        out: out.to_path_buf(),
+        range,
+        save_masks: false,
+        lut: "bundled".to_owned(),
+        refine: imade_host::run::RefineChoice(None),
+        range_smoothing: imade_host::run::SmoothingArg::default(),
+        smooth: false,
+        no_grey_fit: false,
+    }
+}
+
 /// Runs `clip` through `imade run` (its library) into `out`, with the model choice `lut`
 /// (`bundled` or a model file), the range use `range` and, with `save_masks`, the stage masks,
 /// and evaluates the results against the clip's truth (`imade eval`).
@@ -54,15 +75,9 @@ pub fn run_and_evaluate(
     out: &Path,
 ) -> imade_host::eval::Evaluation {
     evaluate_run(imade_host::run::RunArgs {
-        clips: vec![clip.to_path_buf()],
-        out: out.to_path_buf(),
-        range,
         save_masks,
         lut: lut.to_owned(),
-        refine: imade_host::run::RefineChoice(None),
-        range_smoothing: imade_host::run::SmoothingArg::default(),
-        smooth: false,
-        no_grey_fit: false,
+        ..run_args(clip, range, out)
     })
 }
 

@@ -2,26 +2,20 @@
 //! bundled clips' truth: honest sigmas hold about 95 % of the errors within two sigmas, and the
 //! issue's bar is 80-99 % on each clip.
 
-use imade_host::run::{RangeArg, RefineChoice, RunArgs, SmoothingArg};
+use imade_host::run::{RangeArg, RunArgs};
 use std::path::Path;
 
 /// Runs `clip` with `range` (smoothed with `smooth`) and returns the shares of frames whose
 /// pitch and chosen yaw errors are within two of their sigmas.
 fn angle_coverage(clip: &str, range: RangeArg, smooth: bool) -> (f64, f64) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let out = root.join(format!(
+        "target/tmp/uncertainty-{clip}-{}-{smooth}",
+        range.name()
+    ));
     let evaluation = imade_tests::evaluate_run(RunArgs {
-        clips: vec![root.join("fixtures").join(clip)],
-        out: root.join(format!(
-            "target/tmp/uncertainty-{clip}-{}-{smooth}",
-            range.name()
-        )),
-        range,
-        save_masks: false,
-        lut: "bundled".into(),
-        refine: RefineChoice(None),
-        range_smoothing: SmoothingArg::default(),
         smooth,
-        no_grey_fit: false,
+        ..imade_tests::run_args(&root.join("fixtures").join(clip), range, &out)
     });
     let pose = &evaluation.pose;
     assert_eq!(pose.frames_with_pose, pose.frames_with_truth, "{clip}");

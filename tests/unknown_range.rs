@@ -76,16 +76,10 @@ fn smoothing_a_recorded_clip_gives_the_depth_and_the_side() {
         ("small-towards-camera", RangeArg::Ignore, Some(10.0)),
         ("small-towards-camera", RangeArg::Auto, None),
     ] {
+        let out = root.join(format!("target/tmp/smoothed-{clip}-{}", range.name()));
         let evaluation = imade_tests::evaluate_run(imade_host::run::RunArgs {
-            clips: vec![root.join("fixtures").join(clip)],
-            out: root.join(format!("target/tmp/smoothed-{clip}-{}", range.name())),
-            range,
-            save_masks: false,
-            lut: "bundled".into(),
-            refine: imade_host::run::RefineChoice(None),
-            range_smoothing: imade_host::run::SmoothingArg::default(),
             smooth: true,
-            no_grey_fit: false,
+            ..imade_tests::run_args(&root.join("fixtures").join(clip), range, &out)
         });
         let pose = &evaluation.pose;
         let side = pose.yaw_choice_correct.expect("frames with a pose");
