@@ -163,8 +163,9 @@ pub struct Measurement {
 }
 
 impl Measurement {
-    /// The slant range measured from the image, m: the matched scale's where the range was not
-    /// given, else the apparent diameter's.
+    /// The slant range measured from the image, m: where the range was not given, the
+    /// grey-level fit's scale's (the match's unless `GreyFitConfig::fit_scale`), else the
+    /// match's; where it was given, the apparent diameter's.
     pub fn image_range_m(&self) -> Option<f32> {
         if self.hypothesis.sensor_range_m.is_some() {
             return self.hypothesis.image_range_m;
