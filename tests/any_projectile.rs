@@ -176,9 +176,13 @@ fn other_shapes_run_from_their_meshes() {
 /// shape's scenario (`fixtures/scenarios/small-<id>.toml`, the scene of `small-known-range` with
 /// the focal length scaled so that the body spans as many pixels) and the reference's, rendered
 /// with 80 frames (every 2nd camera frame), run with and without the range. The finned shapes'
-/// medians per km are within 20 % of the reference's (or of a floor where both are tiny); the
-/// shell without fins, whose tilt only its length can tell, within the paper's accuracy. Printed
-/// as the comparison table.
+/// medians per km are within 20 % of the reference's (or of a floor where both are tiny). The
+/// shell without fins, whose tilt only its length can tell, within 2.5 times the reference's:
+/// this scene flies within 8 deg of broadside in 37 of its 80 frames, where the shell's length
+/// changes with its tilt half as fast as the reference's (at 6 deg, 0.038 of itself per radian
+/// against 0.076: its 40-mm base's ellipse grows as the foreshortening shrinks it) and no fins
+/// show the tilt; beyond 12 deg its yaw is within 1.8 times the reference's with the range and
+/// 1.2 times without. Printed as the comparison table.
 #[test]
 fn finned_shapes_match_the_reference_on_comparable_clips() {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("comparable");
@@ -233,19 +237,10 @@ fn finned_shapes_match_the_reference_on_comparable_clips() {
             row(id, name, &e);
             assert!(e.poses * 100 >= 95 * 80, "{id} {name}: {} poses", e.poses);
             let floors = [0.005, 0.5, 0.02, 0.2];
-            let paper = [
-                0.15,
-                50.0,
-                if range == RangeArg::Auto { 3.0 } else { 6.0 },
-                20.0,
-            ];
-            for k in 0..4 {
+            let factor = if finned { 1.2 } else { 2.5 };
+            for (k, floor) in floors.into_iter().enumerate() {
                 let (got, reference) = (e.medians[k], reference.medians[k]);
-                let bound = if finned {
-                    1.2 * reference + floors[k]
-                } else {
-                    paper[k]
-                };
+                let bound = factor * reference + floor;
                 assert!(
                     got <= bound,
                     "{id} {name}: error {k} is {got}, the reference's {reference}, bound {bound}"

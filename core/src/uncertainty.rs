@@ -214,6 +214,7 @@ mod tests {
             },
             sigma_px: 1.0,
             shading: [-100.0, 0.0, 0.0],
+            glow: [0.0; 4],
             rms: 2.0,
             pixels: 1000,
             iterations: 5,

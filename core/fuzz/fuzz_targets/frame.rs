@@ -85,7 +85,7 @@ enum ConfigSpec {
         uncertainty: [f32; 7],
         /// The grey-level fit: whether it runs, then its tunables (pixels, roll starts,
         /// iterations, the rest in field order) and whether it fits the scale.
-        grey_fit: (bool, u16, u8, u8, u8, [f32; 7], bool),
+        grey_fit: (bool, u16, u8, u8, u8, [f32; 9]),
         /// Every tunable of the bar search, in its field order (None: no bar search).
         bar: Option<[f32; 13]>,
         /// Every tunable of the sky corridor, in its field order (None: the tiles' sky).
@@ -289,7 +289,8 @@ fn config(spec: &ConfigSpec) -> Config {
                 max_scale_change: g.5[4],
                 max_shift_px: g.5[5],
                 orientation_margin: g.5[6],
-                fit_scale: g.6,
+                wide_body_sigmas: g.5[7],
+                plume_margin_sigmas: g.5[8],
             },
             track: TrackConfig {
                 gate_px: t[0],

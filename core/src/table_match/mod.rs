@@ -164,7 +164,8 @@ pub struct Measurement {
 
 impl Measurement {
     /// The slant range measured from the image, m: where the range was not given, the
-    /// grey-level fit's scale's (the match's unless `GreyFitConfig::fit_scale`), else the
+    /// grey-level fit's scale's (the match's where the fit held it:
+    /// `GreyFitConfig::wide_body_sigmas`), else the
     /// match's; where it was given, the apparent diameter's.
     pub fn image_range_m(&self) -> Option<f32> {
         if self.hypothesis.sensor_range_m.is_some() {
