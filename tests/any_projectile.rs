@@ -175,76 +175,92 @@ fn other_shapes_run_from_their_meshes() {
 /// The any-projectile accuracy claim, on clips long enough for medians to mean something: each
 /// shape's scenario (`fixtures/scenarios/small-<id>.toml`, the scene of `small-known-range` with
 /// the focal length scaled so that the body spans as many pixels) and the reference's, rendered
-/// with 80 frames (every 2nd camera frame), run with and without the range. The finned shapes'
-/// medians per km are within 20 % of the reference's (or of a floor where both are tiny). The
-/// shell without fins, whose tilt only its length can tell, within 2.5 times the reference's:
-/// this scene flies within 8 deg of broadside in 37 of its 80 frames, where the shell's length
-/// changes with its tilt half as fast as the reference's (at 6 deg, 0.038 of itself per radian
-/// against 0.076: its 40-mm base's ellipse grows as the foreshortening shrinks it) and no fins
-/// show the tilt; beyond 12 deg its yaw is within 1.8 times the reference's with the range and
-/// 1.2 times without. Printed as the comparison table.
+/// with 80 frames (every 2nd camera frame), run with and without the range: each shape's medians
+/// per km are within 20 % of the reference's (or of a floor where both are tiny). The shell
+/// without fins is gun-fired: it is compared on the scene without the exhaust plume, the
+/// reference too. Under the rocket's plume (its bundled clip's scene, a tracer's worst case) it
+/// is held within 2.5 times the reference's: that scene flies within 8 deg of broadside in 37
+/// of its 80 frames, where the plume's glow lies on the base whose ellipse alone, with the
+/// length, shows a finless body's tilt (at 6 deg the shell's length changes half as fast with
+/// the tilt as the reference's, 0.038 of itself per radian against 0.076). Printed as the
+/// comparison table.
 #[test]
-fn finned_shapes_match_the_reference_on_comparable_clips() {
+fn other_shapes_match_the_reference_on_comparable_clips() {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("comparable");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let render = |name: &str| {
+    let render = |name: &str, plume: bool| {
         let file = fixture("scenarios").join(format!("small-{name}.toml"));
         let mut scenario = imade_host::sim::Scenario::from_file(&file).expect("the scenario");
         scenario.clip.frames = 80;
         scenario.clip.keep_every = 2;
-        let clip = dir.join(name);
+        scenario.plume.enabled &= plume;
+        let clip = dir.join(if plume {
+            name.to_string()
+        } else {
+            format!("{name}-no-plume")
+        });
         imade_host::sim::Simulation::new(scenario)
             .and_then(|s| s.write_clip(&clip, 2))
             .unwrap_or_else(|e| panic!("{name}: {e:#}"));
         clip
     };
-    let reference = render("known-range");
     let ranges = [(RangeArg::Auto, "known"), (RangeArg::Ignore, "unknown")];
-    let reference_errors = ranges.map(|(range, name)| {
-        errors(
-            &reference,
-            "bundled",
-            range,
-            &dir.join(format!("ref-{name}")),
-        )
-    });
-    println!("| shape | range | Tx m/km | Tz m/km | pitch deg/km | best yaw deg/km | poses |");
-    let row = |id: &str, name: &str, e: &Errors| {
+    println!(
+        "| shape | scene | range | Tx m/km | Tz m/km | pitch deg/km | best yaw deg/km | poses |"
+    );
+    let row = |id: &str, scene: &str, name: &str, e: &Errors| {
         let m = e.medians;
         println!(
-            "| {id} | {name} | {:.4} | {:.2} | {:.3} | {:.2} | {}/80 |",
+            "| {id} | {scene} | {name} | {:.4} | {:.2} | {:.3} | {:.2} | {}/80 |",
             m[0], m[1], m[2], m[3], e.poses
         );
     };
-    for (e, (_, name)) in reference_errors.iter().zip(ranges) {
-        row("ref-1378x80", name, e);
-    }
+    // The errors of `clip` run with the model choice `lut`, with and without the range.
+    let run = |id: &str, scene: &str, clip: &Path, lut: &str| {
+        ranges.map(|(range, name)| {
+            let e = errors(clip, lut, range, &dir.join(format!("{id}-{scene}-{name}")));
+            row(id, scene, name, &e);
+            e
+        })
+    };
+    let scene = |plume: bool| if plume { "plume" } else { "no plume" };
+    let reference = [true, false].map(|plume| {
+        run(
+            "ref-1378x80",
+            scene(plume),
+            &render("known-range", plume),
+            "bundled",
+        )
+    });
     for id in imade_host::sim::shapes::IDS {
         let model = imade_tests::shape_model(&dir, id);
-        let clip = render(id);
+        let model = model.to_str().unwrap();
         let finned = imade_host::sim::shapes::description(id)
             .unwrap()
             .fins
             .is_some();
-        for ((range, name), reference) in ranges.into_iter().zip(&reference_errors) {
-            let e = errors(
-                &clip,
-                model.to_str().unwrap(),
-                range,
-                &dir.join(format!("{id}-{name}")),
-            );
-            row(id, name, &e);
-            assert!(e.poses * 100 >= 95 * 80, "{id} {name}: {} poses", e.poses);
-            let floors = [0.005, 0.5, 0.02, 0.2];
-            let factor = if finned { 1.2 } else { 2.5 };
-            for (k, floor) in floors.into_iter().enumerate() {
-                let (got, reference) = (e.medians[k], reference.medians[k]);
-                let bound = factor * reference + floor;
-                assert!(
-                    got <= bound,
-                    "{id} {name}: error {k} is {got}, the reference's {reference}, bound {bound}"
-                );
+        // (plume, the factor on the reference's error)
+        let cases: &[(bool, f64)] = if finned {
+            &[(true, 1.2)]
+        } else {
+            &[(false, 1.2), (true, 2.5)]
+        };
+        for &(plume, factor) in cases {
+            let errors = run(id, scene(plume), &render(id, plume), model);
+            let reference = &reference[usize::from(!plume)];
+            for ((e, reference), (_, name)) in errors.iter().zip(reference).zip(ranges) {
+                assert!(e.poses * 100 >= 95 * 80, "{id} {name}: {} poses", e.poses);
+                let floors = [0.005, 0.5, 0.02, 0.2];
+                for (k, floor) in floors.into_iter().enumerate() {
+                    let (got, reference) = (e.medians[k], reference.medians[k]);
+                    let bound = factor * reference + floor;
+                    assert!(
+                        got <= bound,
+                        "{id} {} {name}: error {k} is {got}, the reference's {reference}, bound {bound}",
+                        scene(plume)
+                    );
+                }
             }
         }
     }
