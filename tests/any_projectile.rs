@@ -48,7 +48,7 @@ fn a_model_built_from_a_mesh_runs_a_clip_like_the_bundled_one() {
     std::fs::create_dir_all(&dir).unwrap();
     let mesh = dir.join("ref-1378x80.obj");
     std::fs::write(&mesh, REF_1378X80.tessellate().to_obj()).unwrap();
-    let model = imade_tests::model_from_mesh(&mesh, "ref-1378x80", 0.08);
+    let model = imade_tests::model_from_mesh(&mesh, "ref-1378x80", 0.08, &dir);
     for (clip, range) in [
         ("small-known-range", RangeArg::Auto),
         ("small-unknown-range", RangeArg::Ignore),
@@ -109,8 +109,8 @@ fn a_model_file_for_another_projectile_is_refused() {
     );
 }
 
-/// The three other shapes of the simulator (`imade_host::sim::shapes`): each one's mesh
-/// (`imade model mesh`) becomes a model file, and its bundled clip (`fixtures/small-<id>`, the
+/// The three other shapes of the simulator (`imade_host::sim::shapes`): each one's bundled mesh
+/// (`fixtures/meshes/`) becomes a model file, and its bundled clip (`fixtures/small-<id>`, the
 /// scene of `small-known-range` with the focal length scaled so that the body spans as many
 /// pixels) runs with and without the range: every frame has a pose, the nose is never taken for
 /// the tail (the 90th percentile of the pitch error stays small), and the medians per km are

@@ -89,10 +89,10 @@ pub fn evaluate_run(args: imade_host::run::RunArgs) -> imade_host::eval::Evaluat
         .expect("the evaluation")
 }
 
-/// `imade model build --mesh MESH --diameter D --id ID` with the default table grid, beside the
-/// mesh; the model file's path.
-pub fn model_from_mesh(mesh: &Path, id: &str, diameter_m: f64) -> PathBuf {
-    let out = mesh.with_extension("model");
+/// `imade model build --mesh MESH --diameter D --id ID` with the default table grid, into
+/// `dir`; the model file's path.
+pub fn model_from_mesh(mesh: &Path, id: &str, diameter_m: f64, dir: &Path) -> PathBuf {
+    let out = dir.join(format!("{id}.model"));
     imade_host::model::command::build_command(&imade_host::model::command::BuildArgs {
         model: None,
         mesh: Some(mesh.to_path_buf()),
@@ -110,19 +110,17 @@ pub fn model_from_mesh(mesh: &Path, id: &str, diameter_m: f64) -> PathBuf {
     out
 }
 
-/// The model file of the simulator's shape `id`, built in `dir` from its mesh as a user would:
-/// `imade model mesh --shape ID`, then `imade model build --mesh` with its diameter.
+/// The model file of the simulator's shape `id`, built in `dir` from its bundled mesh
+/// (`fixtures/meshes/ID.obj`, what `imade model mesh --shape ID` writes) as a user would:
+/// `imade model build --mesh` with its diameter.
 pub fn shape_model(dir: &Path, id: &str) -> PathBuf {
-    let mesh = dir.join(format!("{id}.obj"));
-    imade_host::model::command::mesh_command(&imade_host::model::command::MeshArgs {
-        shape: id.into(),
-        out: mesh.clone(),
-    })
-    .expect("the shape's mesh");
+    let mesh = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../fixtures/meshes")
+        .join(format!("{id}.obj"));
     let diameter_m = imade_host::sim::shapes::description(id)
         .expect("a built-in shape")
         .diameter_m;
-    model_from_mesh(&mesh, id, diameter_m)
+    model_from_mesh(&mesh, id, diameter_m, dir)
 }
 
 /// A result's errors against the truth, normalized to 1 km (`docs/geometry.md`): Tx, Ty,

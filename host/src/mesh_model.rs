@@ -497,7 +497,13 @@ pub fn derive(
             p.iter().all(|v| x_max - v.x <= tol) && (p[1] - p[0]).cross(p[2] - p[0]).norm() > 0.0
         })
     };
-    let r_tip = if tip_face { radii[0] } else { 0.0 };
+    // A tip face narrower than the profile's tolerance is a tessellation's closing facet, and the
+    // nose pointed.
+    let r_tip = if tip_face && radii[0] > PROFILE_TOLERANCE * diameter {
+        radii[0]
+    } else {
+        0.0
+    };
     let r_base = body_radius(&slicer.at(length - END_OFFSET * overall), &excluded);
     let mut samples = vec![(0.0, r_tip)];
     samples.extend(

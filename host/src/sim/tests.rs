@@ -246,6 +246,18 @@ fn written_clip_reads_back_with_its_truth() {
 
 /// The bundled fixtures made from scenario files are reproduced byte for byte: the check that the
 /// simulator is deterministic across machines (fixtures/README.md says how they were made).
+/// The bundled meshes of the other shapes (`fixtures/meshes/`) are what `imade model mesh
+/// --shape ID` writes, byte for byte: the meshes their clips were rendered from.
+#[test]
+fn bundled_meshes_are_the_shapes_meshes() {
+    let meshes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/meshes");
+    for id in crate::sim::shapes::IDS {
+        let bundled = std::fs::read_to_string(meshes.join(format!("{id}.obj"))).unwrap();
+        let mesh = crate::sim::shapes::mesh(id).unwrap();
+        assert!(mesh.to_obj() == bundled, "{id}: the bundled mesh differs");
+    }
+}
+
 #[test]
 fn small_fixtures_are_reproduced_byte_for_byte() {
     let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures");
