@@ -312,10 +312,32 @@ pub fn derive(
         .map_err(|e| MeshModelError::Invalid(format!("{e:#}")))?;
     let mut warnings = Vec::new();
 
-    let non_manifold = check_closed(mesh)?;
-    if non_manifold > 0 {
+    let edges = check_closed(mesh)?;
+    if edges.non_manifold > 0 {
         warnings.push(format!(
-            "{non_manifold} edge(s) are shared by more than two triangles (parts touching along an edge); the cuts take the outer surface"
+            "{} edge(s) are shared by more than two triangles (parts touching along an edge); the cuts take the outer surface",
+            edges.non_manifold
+        ));
+    }
+    // A closed surface wound outwards encloses a positive volume (the divergence theorem).
+    let volume: f64 = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
+            a.dot(b.cross(c)) / 6.0
+        })
+        .sum();
+    if edges.misoriented == 0 && volume < 0.0 {
+        warnings.push(
+            "the triangles are wound facing inwards (the cuts do not need them outwards, but a renderer that culls back faces draws nothing)"
+                .to_string(),
+        );
+    }
+    if edges.misoriented > 0 {
+        warnings.push(format!(
+            "{} edge(s) join triangles wound the same way round: the surface's facing is not consistent (the cuts do not need it, but a renderer that culls back faces leaves those triangles out)",
+            edges.misoriented
         ));
     }
 
@@ -678,9 +700,19 @@ pub fn derive(
     Ok((model, report))
 }
 
+/// What [`check_closed`] counted beside the open edges.
+struct EdgeCounts {
+    /// Edges with more than two triangles.
+    non_manifold: usize,
+    /// Edges that their triangles do not traverse as often one way as the other (neighbours
+    /// wound the same way round).
+    misoriented: usize,
+}
+
 /// Checks that every edge has an even number of triangles (two, for a manifold) after welding
-/// vertices at the same position; returns the number of edges with more than two.
-fn check_closed(mesh: &Mesh) -> Result<usize, MeshModelError> {
+/// vertices at the same position; counts the edges with more than two and those whose
+/// triangles are not wound consistently.
+fn check_closed(mesh: &Mesh) -> Result<EdgeCounts, MeshModelError> {
     let mut index: HashMap<[u64; 3], u32> = HashMap::with_capacity(mesh.vertices.len());
     let mut representative: Vec<Vec3> = Vec::new();
     let welded: Vec<u32> = mesh
@@ -695,14 +727,19 @@ fn check_closed(mesh: &Mesh) -> Result<usize, MeshModelError> {
             })
         })
         .collect();
+    // Per undirected edge (lower index first): its triangles, and how many traverse it upwards
+    // less how many downwards.
     let mut edges: HashMap<(u32, u32), u32> = HashMap::with_capacity(3 * mesh.triangles.len());
+    let mut turns: HashMap<(u32, u32), i32> = HashMap::with_capacity(3 * mesh.triangles.len());
     for t in &mesh.triangles {
         let w = t.map(|i| welded[i as usize]);
         if w[0] == w[1] || w[1] == w[2] || w[2] == w[0] {
             continue;
         }
         for (a, b) in [(w[0], w[1]), (w[1], w[2]), (w[2], w[0])] {
-            *edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+            let key = (a.min(b), a.max(b));
+            *edges.entry(key).or_insert(0) += 1;
+            *turns.entry(key).or_insert(0) += if a < b { 1 } else { -1 };
         }
     }
     let open = edges
@@ -718,7 +755,10 @@ fn check_closed(mesh: &Mesh) -> Result<usize, MeshModelError> {
             near_m: [mid.x, mid.y, mid.z],
         });
     }
-    Ok(edges.values().filter(|&&n| n > 2).count())
+    Ok(EdgeCounts {
+        non_manifold: edges.values().filter(|&&n| n > 2).count(),
+        misoriented: turns.values().filter(|&&d| d != 0).count(),
+    })
 }
 
 /// Area and central second moments of a mesh's surface.
@@ -1450,9 +1490,9 @@ mod tests {
         let join = |mesh: &mut Mesh, a: &[u32], b: &[u32]| match (a.len(), b.len()) {
             (1, 1) => panic!("two apexes in a row"),
             (1, n) => (0..n).for_each(|k| mesh.triangles.push([a[0], b[k], b[(k + 1) % n]])),
-            (n, 1) => (0..n).for_each(|k| mesh.triangles.push([a[k], a[(k + 1) % n], b[0]])),
+            (n, 1) => (0..n).for_each(|k| mesh.triangles.push([a[(k + 1) % n], a[k], b[0]])),
             (n, _) => {
-                (0..n).for_each(|k| mesh.push_quad(a[k], a[(k + 1) % n], b[(k + 1) % n], b[k]))
+                (0..n).for_each(|k| mesh.push_quad(a[k], b[k], b[(k + 1) % n], a[(k + 1) % n]))
             }
         };
         let mut previous: Option<Vec<u32>> = None;
@@ -1651,6 +1691,38 @@ mod tests {
         }
     }
 
+    /// A consistently outward mesh draws no warning about its facing; one triangle turned over
+    /// is reported as the three edges it shares wound the same way as its neighbours, and every
+    /// triangle turned over as a surface facing inwards.
+    #[test]
+    fn a_mesh_wound_inconsistently_or_inwards_is_reported() {
+        let mesh = revolve(&[(0.0, 0.01), (0.15, 0.05), (0.5, 0.05)], 48);
+        let facing = |mesh: &Mesh| {
+            let (_, report) = derive(mesh, None).unwrap();
+            report
+                .warnings
+                .into_iter()
+                .filter(|w| w.contains("wound"))
+                .collect::<Vec<_>>()
+        };
+        assert!(facing(&mesh).is_empty(), "{:?}", facing(&mesh));
+        let mut one = mesh.clone();
+        one.triangles[7].swap(1, 2);
+        let warnings = facing(&one);
+        assert!(
+            warnings.len() == 1
+                && warnings[0].starts_with("3 edge(s) join triangles wound the same way"),
+            "{warnings:?}"
+        );
+        let mut all = mesh;
+        all.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+        let warnings = facing(&all);
+        assert!(
+            warnings.len() == 1 && warnings[0].contains("facing inwards"),
+            "{warnings:?}"
+        );
+    }
+
     #[test]
     fn mesh_model_of_a_blunt_nose() {
         // A 20 mm flat tip, a cone to 100 mm at 150 mm, a cylinder to 500 mm.
@@ -1751,7 +1823,7 @@ mod tests {
         let stitch = |mesh: &mut Mesh, a: &[u32], b: &[u32]| {
             let n = a.len();
             for k in 0..n {
-                mesh.push_quad(a[k], a[(k + 1) % n], b[(k + 1) % n], b[k]);
+                mesh.push_quad(a[k], b[k], b[(k + 1) % n], a[(k + 1) % n]);
             }
         };
         let apex = mesh.push_vertex(Vec3::new(x(0.0), 0.0, 0.0));

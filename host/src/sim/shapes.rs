@@ -110,10 +110,11 @@ fn close(mesh: &mut Mesh, ring: &[u32], x: f64, front: bool) {
     let centre = mesh.push_vertex(Vec3::new(x, 0.0, 0.0));
     for k in 0..ring.len() {
         let (a, b) = (ring[k], ring[(k + 1) % ring.len()]);
+        // The rings turn from +y_B towards +z_B, positively about +x_B.
         mesh.triangles.push(if front {
-            [centre, b, a]
-        } else {
             [centre, a, b]
+        } else {
+            [centre, b, a]
         });
     }
 }
@@ -195,7 +196,8 @@ pub fn push_plate(
 mod tests {
     use super::*;
 
-    /// Each shape's mesh is closed, and the mesh-to-model derivation gives back its description.
+    /// Each shape's mesh is closed and wound outwards, and the mesh-to-model derivation gives back
+    /// its description.
     #[test]
     fn each_shape_is_derived_back_from_its_mesh() {
         for id in IDS {
@@ -204,6 +206,8 @@ mod tests {
             let (derived, report) = crate::mesh_model::derive(&mesh, Some(model.diameter_m))
                 .unwrap_or_else(|e| panic!("{id}: {e}"));
             println!("{id}:\n{report}");
+            // Closed and wound outwards throughout (other renderers cull back faces).
+            assert!(report.warnings.is_empty(), "{id}: {:?}", report.warnings);
             // The derived description encodes as a model file the core accepts.
             crate::model::encode(id, &derived, None).unwrap_or_else(|e| panic!("{id}: {e:#}"));
             assert!((derived.length_m - model.length_m).abs() < 1e-3, "{id}");
