@@ -114,15 +114,17 @@ pub struct GreyFitConfig {
     pub max_scale_change: f32,
     /// The fitted origin stays within this many px of the start's.
     pub max_shift_px: f32,
-    /// A body whose diameter spans at least this many blur sigmas is wide: where the range is
-    /// not known its scale is fitted, and where a plume marks its tail the plume's glow next to
-    /// the base ([`glow`]). A narrower body's width trades against the blur and its length
-    /// against the tilt: its fitted scale wandered by 2-15 % (the reference at 5-8 px), and the
-    /// glow's four parameters, spread over the pixel or two of its tail, traded against the
-    /// tail's place (pose errors 20 % better on some clips, 20 % worse on others). A wide body's
-    /// width fixes its scale (the shell at 21 px: 0.1-0.2 %, where the table match's read
-    /// 0.4-1.2 % long), and without the glow a finless one read its tilt degrees off near
-    /// broadside.
+    /// A body without fins, or one whose diameter spans at least this many blur sigmas (wide),
+    /// has its scale fitted where the range is not known, and the plume's glow next to its base
+    /// ([`glow`]) where a plume marks its tail. A narrow finned body's fins, whose span shows
+    /// with the roll and the scale together and which lie under the glow at the tail, traded
+    /// against both: its fitted scale wandered by 2-15 % (the reference at 5-8 px; an outside
+    /// renderer's mortar, Tz 1.8 -> 9.3 m/km), and with the glow its pose errors came out 20 %
+    /// better on some clips and 20 % worse on others. A finless body's scale and tail have only
+    /// the outline to fit (an outside renderer's 8-10 px shell without the range: Tz 12.1 -> 3.2
+    /// m/km, the table match's section reading its diameter 1.2 % narrow; under a plume, with the
+    /// range: yaw 1.44 -> 0.73 deg/km), and a wide body's width fixes its scale (the shell at 21
+    /// px: 0.1-0.2 %).
     pub wide_body_sigmas: f32,
     /// Where the glow is fitted, the window reaches this many blur sigmas beyond the base (the
     /// blurred edge between the body and the plume; the plume beyond is left out).
@@ -620,9 +622,11 @@ pub fn fit<const C: usize>(
     let window = |start: Frame, along: (f32, f32)| {
         Window::new(start, along, across, input.chip, config.max_pixels)
     };
-    // NaN-safe: a NaN threshold makes no body wide.
+    // Whether the scale (range unknown) and the glow (plume at the tail) are fitted. NaN-safe: a
+    // NaN threshold makes no body wide.
     let wide = model.diameter_m * start.px_per_m >= config.wide_body_sigmas * sigma;
-    let has_glow = input.plume_at_tail && wide;
+    let scale_and_glow = wide || model.fins().is_none();
+    let has_glow = input.plume_at_tail && scale_and_glow;
     let probe_window = if input.plume_at_tail {
         window(start, (-base_px, base_px))
     } else {
@@ -637,7 +641,7 @@ pub fn fit<const C: usize>(
         start,
         window,
         columns: first.columns(),
-        scale_held: input.range_m.is_some() || !wide,
+        scale_held: input.range_m.is_some() || !scale_and_glow,
         has_fins: model.fins().is_some(),
         has_glow,
         huber: config.huber_sigmas * input.background.sigma().max(f32::MIN_POSITIVE),
