@@ -105,8 +105,11 @@ pub struct FrameResult {
     pub yaw_resolved: bool,
     /// True when a range measurement fixed the distance.
     pub range_used: bool,
-    /// Roll modulo 90 deg, where estimated.
+    /// Roll, deg, modulo the fins' spacing (90 for four fins) in [0, spacing), where the
+    /// grey-level fit measured it within [`crate::uncertainty::UncertaintyConfig::max_roll_sd_deg`].
     pub roll_deg: Option<f32>,
+    /// One sigma of `roll_deg`, deg, where it is given.
+    pub roll_sd_deg: Option<f32>,
     /// One sigma of `pose.tz_m`, m, where the motion model estimated it (the range from the
     /// image, not a sensor's).
     pub tz_sd_m: Option<f32>,
@@ -191,6 +194,7 @@ impl FrameResult {
         });
         let uncertain = [
             self.roll_deg.unwrap_or(0.0),
+            self.roll_sd_deg.unwrap_or(0.0),
             self.tz_sd_m.unwrap_or(0.0),
             self.pitch_sd_deg,
             self.yaw_sd_deg,
@@ -230,6 +234,7 @@ impl FrameResult {
             yaw_resolved: false,
             range_used: false,
             roll_deg: None,
+            roll_sd_deg: None,
             tz_sd_m: None,
             pitch_sd_deg: 0.0,
             yaw_sd_deg: 0.0,

@@ -425,6 +425,28 @@ impl<
             in_plane_rad,
         );
         let (pitch_sd_deg, yaw_sd_deg) = variance.sd_deg();
+        let roll = measured.fitted.as_ref().and_then(|fitted| {
+            let sd = uncertainty::fitted_roll_sd(fitted, &self.config.uncertainty)?;
+            let sight = nalgebra::Vector3::new(tx_m, ty_m, tz_m);
+            let roll = crate::pose::roll_of_silhouette(
+                chosen.pitch_deg,
+                chosen.yaw_deg,
+                &sight,
+                fitted.view.roll_deg,
+            );
+            // Modulo the fins' spacing, in [0, spacing).
+            let spacing = self
+                .model
+                .fins()
+                .map_or(f32::NAN, |f| 360.0 / f32::from(f.count.max(1)));
+            let within = roll % spacing;
+            let within = if within < 0.0 {
+                within + spacing
+            } else {
+                within
+            };
+            (within.is_finite() && within < spacing).then_some((within, sd))
+        });
         FrameResult {
             status: Status::Ok,
             capacity: None,
@@ -439,7 +461,8 @@ impl<
             yaw_alt_deg: alternative.yaw_deg,
             yaw_resolved: estimate.choice.resolved,
             range_used: measured.hypothesis.sensor_range_m.is_some(),
-            roll_deg: None,
+            roll_deg: roll.map(|r| r.0),
+            roll_sd_deg: roll.map(|r| r.1),
             // The depth is the slant range times the line of sight's cosine: so is its sigma.
             tz_sd_m: estimate.range_sd_m.map(|sd| sd * tz_m / estimate.range_m),
             pitch_sd_deg,

@@ -56,6 +56,35 @@ pub fn rotation_body_to_camera(pitch_deg: f32, yaw_deg: f32, roll_deg: f32) -> M
     p * rz * ry * rx
 }
 
+/// The body's roll (about +x_B, deg, in (-180, 180]) at attitude `pitch_deg`, `yaw_deg` whose
+/// silhouette, seen along `line_of_sight` (C, towards the body), shows its fins turned by
+/// `silhouette_roll_deg` ([`crate::lut::render::View::roll_deg`]: a fin's angle from the
+/// silhouette's `+v`, the projected axis turned +90 deg in the image, towards the axis cross
+/// `+v`).
+///
+/// The silhouette frame's `+v` lies at an angle `alpha` from +y_B towards +z_B of the body at
+/// roll 0; a fin at `psi` from `+v` then lies at `alpha + psi` from +y_B, so the roll is
+/// `alpha + silhouette_roll_deg`. A silhouette is drawn with the nose tilted away from the
+/// camera; the same outline with the nose towards it is its mirror image across the image
+/// plane, which turns the fins the other way round: there the roll is
+/// `alpha - silhouette_roll_deg`.
+pub fn roll_of_silhouette(
+    pitch_deg: f32,
+    yaw_deg: f32,
+    line_of_sight: &Vector3<f32>,
+    silhouette_roll_deg: f32,
+) -> f32 {
+    let level = rotation_body_to_camera(pitch_deg, yaw_deg, 0.0);
+    let (nose, y0, z0) = (level.column(0), level.column(1), level.column(2));
+    let sight = line_of_sight.normalize();
+    let along = nose.dot(&sight);
+    let projected = (nose - sight * along).normalize();
+    let v = sight.cross(&projected);
+    let alpha = libm::atan2f(v.dot(&z0), v.dot(&y0)) * DEG;
+    let turn = if along >= 0.0 { 1.0 } else { -1.0 };
+    wrap_deg(alpha + turn * silhouette_roll_deg)
+}
+
 /// An angle in degrees wrapped to (-180, 180].
 pub fn wrap_deg(a: f32) -> f32 {
     if !a.is_finite() {
@@ -125,5 +154,71 @@ mod tests {
         assert_eq!(wrap_deg(190.0), -170.0);
         assert_eq!(wrap_deg(-540.0), 180.0);
         assert_eq!(wrap_deg(45.0), 45.0);
+    }
+
+    /// The roll of a silhouette is the pose's: the reference posed at a pitch, yaw and roll
+    /// (nose away from the camera or towards it), seen along a line of sight, projects its fin
+    /// tips where the silhouette renderer draws them at the view's tilt and at the silhouette
+    /// roll that `roll_of_silhouette` maps back to the pose's roll.
+    #[test]
+    fn a_silhouettes_roll_is_the_poses() {
+        let model = crate::model::testing::reference();
+        let fins = model.fins().unwrap();
+        let sight = Vector3::new(0.01, -0.02, 1.0).normalize();
+        for (pitch, yaw, roll) in [
+            (30.0f32, -60.0f32, 20.0f32),
+            (-10.0, 110.0, -35.0),
+            (50.0, 150.0, 70.0),
+            (5.0, -95.0, 10.0),
+        ] {
+            let r = rotation_body_to_camera(pitch, yaw, roll);
+            let nose = r.column(0).into_owned();
+            let along = nose.dot(&sight);
+            let u = (nose - sight * along).normalize();
+            let v = sight.cross(&u);
+            // The silhouette roll that maps back to `roll`, found by search (no inverse
+            // formula): the one whose image the mapping returns as `roll`.
+            let silhouette_roll = (0..3600)
+                .map(|i| i as f32 * 0.1)
+                .min_by(|a, b| {
+                    let miss =
+                        |x: f32| wrap_deg(roll_of_silhouette(pitch, yaw, &sight, x) - roll).abs();
+                    miss(*a).total_cmp(&miss(*b))
+                })
+                .unwrap();
+            let view = crate::lut::render::View {
+                tilt_deg: libm::asinf(along.abs()) * DEG,
+                roll_deg: silhouette_roll,
+            };
+            // The fins are drawn last: the last 64 vertices hold theirs.
+            let mut drawn: [(f32, f32); 64] = [(f32::NAN, f32::NAN); 64];
+            let mut count = 0usize;
+            crate::lut::render::for_each_triangle(&model, &view, |t| {
+                for p in t {
+                    drawn[count % 64] = p;
+                    count += 1;
+                }
+            });
+            let half = 0.5 * model.length_m;
+            let (tip_le, _) = fins.tip_s;
+            for k in 0..fins.count {
+                let phi = (fins.first_roll_deg + 90.0 * f32::from(k)) * RAD;
+                let body = Vector3::new(
+                    half - tip_le,
+                    fins.tip_radius_m * libm::cosf(phi),
+                    fins.tip_radius_m * libm::sinf(phi),
+                );
+                let seen = r * body;
+                let (pu, pv) = (seen.dot(&u), seen.dot(&v));
+                let nearest = drawn
+                    .iter()
+                    .map(|(a, b)| libm::hypotf(a - pu, b - pv))
+                    .fold(f32::INFINITY, f32::min);
+                assert!(
+                    nearest < 2e-3,
+                    "pose ({pitch}, {yaw}, {roll}): fin {k} tip ({pu}, {pv}) is {nearest} m from the silhouette's"
+                );
+            }
+        }
     }
 }

@@ -6,7 +6,7 @@ use crate::segment::TrackUse;
 use core::fmt::{self, Write};
 
 /// The header line (without a line end). The spec's columns, then imade's own.
-pub const HEADER: &str = "frame,status,tx_m,ty_m,tz_m,pitch_deg,yaw_deg,yaw_alt_deg,yaw_resolved,range_used,roll_deg,tz_sd_m,pitch_sd_deg,yaw_sd_deg,pitch_alt_deg,image_range_m,track";
+pub const HEADER: &str = "frame,status,tx_m,ty_m,tz_m,pitch_deg,yaw_deg,yaw_alt_deg,yaw_resolved,range_used,roll_deg,tz_sd_m,pitch_sd_deg,yaw_sd_deg,pitch_alt_deg,image_range_m,track,roll_sd_deg";
 
 /// Writes one row (without a line end) for `frame`.
 pub fn write_row(out: &mut impl Write, frame: u64, result: &FrameResult) -> fmt::Result {
@@ -35,13 +35,17 @@ pub fn write_row(out: &mut impl Write, frame: u64, result: &FrameResult) -> fmt:
     }
     write!(
         out,
-        ",{:.4},{:.4},{:.4},{:.3},{}",
+        ",{:.4},{:.4},{:.4},{:.3},{},",
         result.pitch_sd_deg,
         result.yaw_sd_deg,
         result.pitch_alt_deg,
         result.image_range_m,
         result.track.map_or("", TrackUse::as_str)
-    )
+    )?;
+    if let Some(sd) = result.roll_sd_deg {
+        write!(out, "{sd:.3}")?;
+    }
+    Ok(())
 }
 
 /// Writes the row of a frame that produced no pose, with `status` (lower case, no commas); the
@@ -50,5 +54,5 @@ pub fn write_status_row(out: &mut impl Write, frame: Option<u64>, status: &str) 
     if let Some(frame) = frame {
         write!(out, "{frame}")?;
     }
-    write!(out, ",{status},,,,,,,false,false,,,,,,,")
+    write!(out, ",{status},,,,,,,false,false,,,,,,,,")
 }

@@ -47,6 +47,15 @@ pub struct UncertaintyConfig {
     /// ... and along the axis at least this many body diameters, in quadrature (the ends'
     /// shading and a plume's glow, which the fit models only roughly).
     pub fit_min_end_sd_diameters: f32,
+    /// The roll's sigma: the fit's covariance's times [`UncertaintyConfig::fit_gain`], with at
+    /// least this many deg in quadrature (the fins' shading and thin plates, which the fit
+    /// models only roughly) ...
+    pub fit_min_roll_sd_deg: f32,
+    /// ... and the roll is reported only where that sigma is at most this, deg ...
+    pub max_roll_sd_deg: f32,
+    /// ... and the body is tilted at least this far out of the image plane, deg: seen
+    /// broadside, fins turned either way cast the same outline.
+    pub min_roll_tilt_deg: f32,
 }
 
 impl UncertaintyConfig {
@@ -59,6 +68,9 @@ impl UncertaintyConfig {
         fit_gain: 3.0,
         fit_min_end_sd_px: 0.05,
         fit_min_end_sd_diameters: 0.03,
+        fit_min_roll_sd_deg: 5.0,
+        max_roll_sd_deg: 10.0,
+        min_roll_tilt_deg: 5.0,
     };
 }
 
@@ -136,6 +148,18 @@ pub fn fitted_end_sd(
     (sd.along_px.is_finite() && sd.across_px.is_finite()).then_some(sd)
 }
 
+/// One sigma of the roll the grey-level fit `fitted` measured, deg: its covariance's times
+/// [`UncertaintyConfig::fit_gain`] with [`UncertaintyConfig::fit_min_roll_sd_deg`] in
+/// quadrature; None where it has none (a model without fins), where it exceeds
+/// [`UncertaintyConfig::max_roll_sd_deg`] or where the fitted tilt is below
+/// [`UncertaintyConfig::min_roll_tilt_deg`].
+pub fn fitted_roll_sd(fitted: &GreyFitted, config: &UncertaintyConfig) -> Option<f32> {
+    let gained = config.fit_gain * fitted.roll_sd_deg;
+    let floor = config.fit_min_roll_sd_deg;
+    let sd = libm::sqrtf(gained * gained + floor * floor);
+    (sd <= config.max_roll_sd_deg && fitted.view.tilt_deg >= config.min_roll_tilt_deg).then_some(sd)
+}
+
 /// Variances of pitch and yaw, deg², summed term by term.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AngleVariance {
@@ -208,6 +232,7 @@ mod tests {
             scale_sd: 0.0,
             length_sd_px: 0.1,
             turn_sd_rad: 1e-3,
+            roll_sd_deg: 2.0,
             view: crate::lut::render::View {
                 tilt_deg: 10.0,
                 roll_deg: 0.0,

@@ -82,9 +82,9 @@ enum ConfigSpec {
         /// Every tunable of the silhouette stage, in its field order.
         silhouette: [f32; 13],
         /// Every tunable of the uncertainties, in their field order.
-        uncertainty: [f32; 7],
+        uncertainty: [f32; 10],
         /// The grey-level fit: whether it runs, then its tunables (pixels, roll starts,
-        /// iterations, the rest in field order) and whether it fits the scale.
+        /// iterations, the rest in field order).
         grey_fit: (bool, u16, u8, u8, u8, [f32; 9]),
         /// Every tunable of the bar search, in its field order (None: no bar search).
         bar: Option<[f32; 13]>,
@@ -275,6 +275,9 @@ fn config(spec: &ConfigSpec) -> Config {
                 fit_gain: u[4],
                 fit_min_end_sd_px: u[5],
                 fit_min_end_sd_diameters: u[6],
+                fit_min_roll_sd_deg: u[7],
+                max_roll_sd_deg: u[8],
+                min_roll_tilt_deg: u[9],
             },
             grey_fit: GreyFitConfig {
                 enabled: g.0,

@@ -182,6 +182,9 @@ pub struct GreyFitted {
     pub length_sd_px: f32,
     /// See `length_sd_px`.
     pub turn_sd_rad: f32,
+    /// One sigma of the view's roll, deg, from the fit's covariance (NaN on a model without
+    /// fins, whose roll the image does not show, or without a covariance).
+    pub roll_sd_deg: f32,
     /// The fitted view.
     pub view: View,
     /// Blur sigma, px (the PSF and the pixel's width together).
@@ -794,6 +797,11 @@ pub fn fit<const C: usize>(
         scale_sd,
         length_sd_px: libm::sqrtf(length_var.max(0.0)),
         turn_sd_rad: libm::sqrtf(var(2, 2).max(0.0)),
+        roll_sd_deg: if problem.has_fins {
+            libm::sqrtf(var(ROLL, ROLL).max(0.0))
+        } else {
+            f32::NAN
+        },
         view: fitted_view,
         sigma_px: p[SIGMA],
         shading: [p[SHADING], p[SHADING + 1], p[SHADING + 2]],

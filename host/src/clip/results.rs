@@ -27,7 +27,7 @@ pub struct ResultRow {
     pub yaw_resolved: bool,
     /// True where a range measurement fixed Tz.
     pub range_used: bool,
-    /// Roll modulo 90 deg, where estimated.
+    /// Roll modulo the fins' spacing (90 deg for four fins), where estimated.
     pub roll_deg: Option<f64>,
     /// One sigma of `tz_m`, m, where estimated.
     #[serde(default)]
@@ -44,6 +44,9 @@ pub struct ResultRow {
     /// Slant range measured from the image, m (an imade column).
     #[serde(default)]
     pub image_range_m: Option<f64>,
+    /// One sigma of `roll_deg`, deg, where it is given (an imade column).
+    #[serde(default)]
+    pub roll_sd_deg: Option<f64>,
 }
 
 impl ResultRow {

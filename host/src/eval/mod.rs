@@ -58,13 +58,28 @@ pub fn evaluate(clip_dir: &Path, results: &Path) -> anyhow::Result<Evaluation> {
     }
     let rows = read_results(results)?;
     let results_dir = results.parent().unwrap_or(Path::new("."));
+    let roll_period_deg = roll_period_deg(&clip.meta.projectile);
     Ok(Evaluation {
         clip: clip_dir.to_path_buf(),
         results: results.to_path_buf(),
         result_rows: rows.len(),
-        pose: pose_errors::evaluate(&truth, &rows),
+        pose: pose_errors::evaluate(&truth, &rows, roll_period_deg),
         segmentation: iou::evaluate(&clip, results_dir)?,
     })
+}
+
+/// The spacing of `projectile`'s fins, deg, which its roll is given modulo: from its bundled
+/// model or the simulator's shape of that id, else 90 (the spec's four fins).
+fn roll_period_deg(projectile: &str) -> f64 {
+    let bundled = crate::model::for_clip(projectile, None)
+        .ok()
+        .and_then(|m| m.fins().map(|f| u32::from(f.count)));
+    let shape =
+        || crate::sim::shapes::description(projectile).and_then(|d| d.fins.map(|f| f.count));
+    bundled
+        .or_else(shape)
+        .filter(|&count| count > 0)
+        .map_or(90.0, |count| 360.0 / f64::from(count))
 }
 
 /// Writes `eval.md` and `eval.json` of an evaluation into `dir`.

@@ -37,6 +37,12 @@ pub struct FrameErrors {
     pub pitch_within_two_sd: Option<bool>,
     /// Where the row gives `yaw_sd_deg`: the same for yaw.
     pub yaw_within_two_sd: Option<bool>,
+    /// Roll error modulo the fins' spacing, deg/km, where the row gives a roll and its chosen
+    /// yaw candidate is the better one (the roll is the chosen candidate's: the mirror's turns
+    /// the fins the other way).
+    pub roll: Option<f64>,
+    /// Where `roll` is judged and the row gives `roll_sd_deg`: whether it is within two sigmas.
+    pub roll_within_two_sd: Option<bool>,
 }
 
 impl FrameErrors {
@@ -87,6 +93,12 @@ pub struct PoseEvaluation {
     pub pitch_within_two_sd: Option<f64>,
     /// The same for yaw and `yaw_sd_deg`.
     pub yaw_within_two_sd: Option<f64>,
+    /// Roll errors, deg/km, of the frames with a roll and the better yaw candidate chosen.
+    pub roll: Option<Summary>,
+    /// Frames with a pose that give a roll.
+    pub frames_with_roll: usize,
+    /// The same as `pitch_within_two_sd` for roll and `roll_sd_deg`.
+    pub roll_within_two_sd: Option<f64>,
     /// Per-frame errors.
     pub frames: Vec<FrameErrors>,
 }
@@ -107,8 +119,14 @@ pub fn wrap_deg(d: f64) -> f64 {
     if w > 180.0 { w - 360.0 } else { w }
 }
 
-/// The errors of one frame; None unless the row has a pose.
-pub fn frame_errors(frame: u64, truth: &GroundTruth, row: &ResultRow) -> Option<FrameErrors> {
+/// The errors of one frame; None unless the row has a pose. Rolls differ modulo
+/// `roll_period_deg`, the fins' spacing.
+pub fn frame_errors(
+    frame: u64,
+    truth: &GroundTruth,
+    row: &ResultRow,
+    roll_period_deg: f64,
+) -> Option<FrameErrors> {
     if !row.is_ok() || truth.tz_m.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
@@ -132,6 +150,11 @@ pub fn frame_errors(frame: u64, truth: &GroundTruth, row: &ResultRow) -> Option<
         (Some(pitch), yaw)
     };
     let within = |error_per_km: f64, sd: Option<f64>| sd.map(|sd| error_per_km * km <= 2.0 * sd);
+    let half = 0.5 * roll_period_deg;
+    let roll = row
+        .roll_deg
+        .filter(|_| yaw <= yaw_alt)
+        .map(|r| ((r - truth.roll_deg + half).rem_euclid(roll_period_deg) - half).abs() / km);
     Some(FrameErrors {
         frame,
         tz_true_m: truth.tz_m,
@@ -149,18 +172,25 @@ pub fn frame_errors(frame: u64, truth: &GroundTruth, row: &ResultRow) -> Option<
             .map(|(sd, tz)| (tz - truth.tz_m).abs() <= 2.0 * sd),
         pitch_within_two_sd: pitch_judged.and_then(|p| within(p, row.pitch_sd_deg)),
         yaw_within_two_sd: within(yaw_judged, row.yaw_sd_deg),
+        roll,
+        roll_within_two_sd: roll.and_then(|r| within(r, row.roll_sd_deg)),
     })
 }
 
-/// Evaluates results against the truth of `(frame, truth)` pairs.
-pub fn evaluate(truth: &[(u64, GroundTruth)], results: &[ResultRow]) -> PoseEvaluation {
+/// Evaluates results against the truth of `(frame, truth)` pairs, rolls modulo
+/// `roll_period_deg`.
+pub fn evaluate(
+    truth: &[(u64, GroundTruth)],
+    results: &[ResultRow],
+    roll_period_deg: f64,
+) -> PoseEvaluation {
     let by_frame: HashMap<u64, &ResultRow> = results
         .iter()
         .filter_map(|r| r.frame.map(|f| (f, r)))
         .collect();
     let frames: Vec<FrameErrors> = truth
         .iter()
-        .filter_map(|(frame, t)| frame_errors(*frame, t, by_frame.get(frame)?))
+        .filter_map(|(frame, t)| frame_errors(*frame, t, by_frame.get(frame)?, roll_period_deg))
         .collect();
     let ranged = frames.iter().filter(|f| f.range_used).count();
     let case = if 2 * ranged > frames.len() {
@@ -192,6 +222,12 @@ pub fn evaluate(truth: &[(u64, GroundTruth)], results: &[ResultRow]) -> PoseEval
         tz_within_two_sd: share_within(|f| f.tz_within_two_sd),
         pitch_within_two_sd: share_within(|f| f.pitch_within_two_sd),
         yaw_within_two_sd: share_within(|f| f.yaw_within_two_sd),
+        roll: summarize(&frames.iter().filter_map(|f| f.roll).collect::<Vec<_>>()),
+        frames_with_roll: results
+            .iter()
+            .filter(|r| r.is_ok() && r.roll_deg.is_some())
+            .count(),
+        roll_within_two_sd: share_within(|f| f.roll_within_two_sd),
         frames,
     }
 }
@@ -229,13 +265,14 @@ mod tests {
             yaw_sd_deg: None,
             pitch_alt_deg: None,
             image_range_m: None,
+            roll_sd_deg: None,
         }
     }
 
     #[test]
     fn errors_are_normalized_to_one_km_and_wrapped() {
         // At 2 km every absolute error is halved; yaw -179 is 2 deg from 179 across the wrap.
-        let e = frame_errors(7, &truth(), &row(-179.0, 0.0)).unwrap();
+        let e = frame_errors(7, &truth(), &row(-179.0, 0.0), 90.0).unwrap();
         assert!((e.tx - 0.15).abs() < 1e-9);
         assert!((e.tz - 50.0).abs() < 1e-9);
         assert!((e.pitch - 3.0).abs() < 1e-9);
@@ -250,7 +287,7 @@ mod tests {
 
     #[test]
     fn the_better_candidate_and_the_choice_are_scored() {
-        let e = frame_errors(7, &truth(), &row(1.0, 171.0)).unwrap();
+        let e = frame_errors(7, &truth(), &row(1.0, 171.0), 90.0).unwrap();
         assert!((e.yaw - 89.0).abs() < 1e-9);
         assert!((e.yaw_best - 4.0).abs() < 1e-9);
         assert!(!e.yaw_choice_correct);
@@ -258,10 +295,37 @@ mod tests {
             status: "no_target".into(),
             ..row(0.0, 0.0)
         };
-        assert!(frame_errors(7, &truth(), &failed).is_none());
-        let eval = evaluate(&[(7, truth()), (8, truth())], &[row(1.0, 171.0)]);
+        assert!(frame_errors(7, &truth(), &failed, 90.0).is_none());
+        let eval = evaluate(&[(7, truth()), (8, truth())], &[row(1.0, 171.0)], 90.0);
         assert_eq!((eval.frames_with_truth, eval.frames_with_pose), (2, 1));
         assert_eq!(eval.case, RangeCase::Unknown);
         assert_eq!(eval.yaw_choice_correct, Some(0.0));
+    }
+
+    /// A roll is scored modulo the fins' spacing, per km, and only where the chosen candidate is
+    /// the better one: 88 deg against a true 0 with four fins is 2 deg off (1 per km at 2 km),
+    /// and with a sigma of 1.5 deg within two of them.
+    #[test]
+    fn a_roll_is_scored_modulo_the_fins_spacing() {
+        let rolled = ResultRow {
+            roll_deg: Some(88.0),
+            roll_sd_deg: Some(1.5),
+            ..row(-179.0, 0.0)
+        };
+        let e = frame_errors(7, &truth(), &rolled, 90.0).unwrap();
+        assert!((e.roll.unwrap() - 1.0).abs() < 1e-9, "{e:?}");
+        assert_eq!(e.roll_within_two_sd, Some(true));
+        // Six fins: 88 is 28 deg from a true 0 modulo 60.
+        let six = frame_errors(7, &truth(), &rolled, 60.0).unwrap();
+        assert!((six.roll.unwrap() - 14.0).abs() < 1e-9, "{six:?}");
+        // The mirror candidate chosen: the roll is not scored.
+        let mirrored = ResultRow {
+            roll_deg: Some(88.0),
+            ..row(1.0, 171.0)
+        };
+        assert_eq!(
+            frame_errors(7, &truth(), &mirrored, 90.0).unwrap().roll,
+            None
+        );
     }
 }

@@ -75,7 +75,31 @@ fn write_pose_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Re
         }
         writeln!(s)?;
     }
-    write!(s, "| yaw choice correct | % |")?;
+    write!(
+        s,
+        "| roll (chosen candidate where it is the better one) | deg/km |"
+    )?;
+    for e in evaluations {
+        let stats = e.pose.roll;
+        write!(
+            s,
+            " {} | {} | {} | - |",
+            opt(stats.map(|x| x.median), num),
+            opt(stats.map(|x| x.mean), num),
+            opt(stats.map(|x| x.p90), num)
+        )?;
+    }
+    write!(s, "\n| frames with a roll | % of poses |")?;
+    for e in evaluations {
+        let share = (e.pose.frames_with_pose > 0)
+            .then(|| e.pose.frames_with_roll as f64 / e.pose.frames_with_pose as f64);
+        write!(
+            s,
+            " {} | | | |",
+            opt(share, |f| format!("{:.1}", 100.0 * f))
+        )?;
+    }
+    write!(s, "\n| yaw choice correct | % |")?;
     for e in evaluations {
         write!(
             s,
@@ -83,7 +107,7 @@ fn write_pose_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Re
             opt(e.pose.yaw_choice_correct, |f| format!("{:.1}", 100.0 * f))
         )?;
     }
-    let coverage: [(&str, Share); 3] = [
+    let coverage: [(&str, Share); 4] = [
         ("Tz within two of its sigmas (tz_sd_m)", |e| {
             e.pose.tz_within_two_sd
         }),
@@ -95,6 +119,9 @@ fn write_pose_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Re
             "yaw within two of its sigmas (yaw_sd_deg, nearer candidate)",
             |e| e.pose.yaw_within_two_sd,
         ),
+        ("roll within two of its sigmas (roll_sd_deg)", |e| {
+            e.pose.roll_within_two_sd
+        }),
     ];
     for (label, share) in coverage {
         write!(s, "\n| {label} | % |")?;
