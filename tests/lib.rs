@@ -85,7 +85,7 @@ pub fn run_and_evaluate(
 /// clip's truth (`imade eval`).
 pub fn evaluate_run(args: imade_host::run::RunArgs) -> imade_host::eval::Evaluation {
     imade_host::run::run(&args).expect("the run succeeds");
-    imade_host::eval::evaluate(&args.clips[0], &args.out.join("results.csv"))
+    imade_host::eval::evaluate(&args.clips[0], &args.out.join("results.csv"), &args.lut)
         .expect("the evaluation")
 }
 

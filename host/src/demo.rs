@@ -69,7 +69,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     let evaluations = jobs
         .iter()
         .map(|job| {
-            let evaluation = evaluate(&args.clip, &job.out_dir.join("results.csv"))?;
+            let evaluation = evaluate(&args.clip, &job.out_dir.join("results.csv"), "bundled")?;
             write_reports(&evaluation, &job.out_dir)?;
             Ok(evaluation)
         })

@@ -499,7 +499,7 @@ mod tests {
             .filter(|line| line.contains(",ok,"))
             .count();
         let refined = std::fs::read_dir(out.join(REFINED_FOLDER))?.count();
-        let evaluation = crate::eval::evaluate(&clip, &out.join("results.csv"))?;
+        let evaluation = crate::eval::evaluate(&clip, &out.join("results.csv"), "bundled")?;
         std::fs::remove_dir_all(&out)?;
         assert!(poses > 0);
         assert_eq!(refined, poses, "one refined mask per frame with a pose");

@@ -24,6 +24,11 @@ pub struct EvalArgs {
     /// Folder for `eval.md` and `eval.json` (default: the results file's folder).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// The model the run used, as `imade run --lut` took it (`bundled`, `none` or a model
+    /// file): the roll is scored modulo its fins' spacing (modulo 90 where the model cannot be
+    /// had).
+    #[arg(long, default_value = "bundled")]
+    pub lut: String,
 }
 
 /// The evaluation of one results file.
@@ -41,8 +46,9 @@ pub struct Evaluation {
     pub segmentation: Vec<iou::StageIou>,
 }
 
-/// Evaluates `results` (an imade-results/1 file) against the truth of the clip in `clip_dir`.
-pub fn evaluate(clip_dir: &Path, results: &Path) -> anyhow::Result<Evaluation> {
+/// Evaluates `results` (an imade-results/1 file) against the truth of the clip in `clip_dir`,
+/// written by a run with the model choice `lut` (`imade run --lut`).
+pub fn evaluate(clip_dir: &Path, results: &Path, lut: &str) -> anyhow::Result<Evaluation> {
     let clip = Clip::open(clip_dir)?;
     let truth: Vec<(u64, GroundTruth)> = clip
         .frames
@@ -58,7 +64,7 @@ pub fn evaluate(clip_dir: &Path, results: &Path) -> anyhow::Result<Evaluation> {
     }
     let rows = read_results(results)?;
     let results_dir = results.parent().unwrap_or(Path::new("."));
-    let roll_period_deg = roll_period_deg(&clip.meta.projectile);
+    let roll_period_deg = roll_period_deg(&clip.meta.projectile, lut);
     Ok(Evaluation {
         clip: clip_dir.to_path_buf(),
         results: results.to_path_buf(),
@@ -68,18 +74,19 @@ pub fn evaluate(clip_dir: &Path, results: &Path) -> anyhow::Result<Evaluation> {
     })
 }
 
-/// The spacing of `projectile`'s fins, deg, which its roll is given modulo: from its bundled
-/// model or the simulator's shape of that id, else 90 (the spec's four fins).
-fn roll_period_deg(projectile: &str) -> f64 {
-    let bundled = crate::model::for_clip(projectile, None)
+/// The spacing of the fins of the model the run used (`lut`, as `imade run --lut` takes it, for
+/// the clip's `projectile`), deg, which its roll is given modulo; 90 (the spec's four fins) for
+/// a model without fins, or where the model cannot be had (a projectile without a bundled model
+/// and no model file given).
+fn roll_period_deg(projectile: &str, lut: &str) -> f64 {
+    let file = match lut {
+        "bundled" | "none" => None,
+        path => Some(Path::new(path)),
+    };
+    crate::model::for_clip(projectile, file)
         .ok()
-        .and_then(|m| m.fins().map(|f| u32::from(f.count)));
-    let shape =
-        || crate::sim::shapes::description(projectile).and_then(|d| d.fins.map(|f| f.count));
-    bundled
-        .or_else(shape)
-        .filter(|&count| count > 0)
-        .map_or(90.0, |count| 360.0 / f64::from(count))
+        .and_then(|model| model.fins())
+        .map_or(90.0, |f| 360.0 / f64::from(f.count.max(1)))
 }
 
 /// Writes `eval.md` and `eval.json` of an evaluation into `dir`.
@@ -93,7 +100,7 @@ pub fn write_reports(evaluation: &Evaluation, dir: &Path) -> anyhow::Result<()> 
 
 /// Runs `imade eval`: prints the markdown report and writes it with the JSON.
 pub fn run(args: &EvalArgs) -> anyhow::Result<()> {
-    let evaluation = evaluate(&args.clip, &args.results)?;
+    let evaluation = evaluate(&args.clip, &args.results, &args.lut)?;
     print!("{}", report::markdown(&[&evaluation]));
     let dir = match &args.out {
         Some(dir) => dir.clone(),

@@ -85,7 +85,7 @@ pub fn run(args: &PlotArgs) -> anyhow::Result<()> {
     let evaluations = args
         .results
         .iter()
-        .map(|r| evaluate(&args.clip, r))
+        .map(|r| evaluate(&args.clip, r, "bundled"))
         .collect::<anyhow::Result<Vec<_>>>()?;
     let mut runs: Vec<(String, &Evaluation)> = Vec::new();
     for (i, e) in evaluations.iter().enumerate() {
