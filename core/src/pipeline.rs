@@ -435,10 +435,7 @@ impl<
                 fitted.view.roll_deg,
             );
             // Modulo the fins' spacing, in [0, spacing).
-            let spacing = self
-                .model
-                .fins()
-                .map_or(f32::NAN, |f| 360.0 / f32::from(f.count.max(1)));
+            let spacing = self.model.fin_spacing_deg()?;
             let within = roll % spacing;
             let within = if within < 0.0 {
                 within + spacing

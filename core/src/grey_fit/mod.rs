@@ -278,10 +278,10 @@ impl Frame {
     }
 }
 
-/// The base centre's distance from the body origin along the projected axis, px, for a body of
-/// `model` at `tilt_deg` and `px_per_m`: half its length, foreshortened.
-fn base_distance_px(model: &ProjectileModel, tilt_deg: f32, px_per_m: f32) -> f32 {
-    0.5 * model.length_m * libm::cosf(tilt_deg * crate::pose::RAD) * px_per_m
+/// The base centre's distance from the body origin along the projected axis, m, for a body of
+/// `model` at `tilt_deg`: half its length, foreshortened.
+fn base_distance_m(model: &ProjectileModel, tilt_deg: f32) -> f32 {
+    0.5 * model.length_m * libm::cosf(tilt_deg * crate::pose::RAD)
 }
 
 /// The pixels summed: those on a lattice of `stride` px within a rectangle along the start's
@@ -437,7 +437,7 @@ impl<const C: usize> GreyProblem<'_, C> {
         self.has_glow.then(|| {
             let d = self.model.diameter_m;
             let sigmas_m = [d * libm::expf(p[GLOW + 1]), d * libm::expf(p[GLOW + 2])];
-            let base_u_m = -0.5 * self.model.length_m * libm::cosf(tilt_deg * crate::pose::RAD);
+            let base_u_m = -base_distance_m(self.model, tilt_deg);
             glow::glow_image(sigmas_m, base_u_m, u, v)
         })
     }
@@ -621,7 +621,7 @@ pub fn fit<const C: usize>(
     // Where a plume glows beyond the tail, the pixels beyond the base are left out: beyond both
     // ends while nose and tail are told apart (so that both ways round sum over the same
     // pixels), then beyond the chosen tail (but for the blurred edge where the glow is fitted).
-    let base_px = base_distance_px(model, view.tilt_deg, start.px_per_m);
+    let base_px = base_distance_m(model, view.tilt_deg) * start.px_per_m;
     let window = |start: Frame, along: (f32, f32)| {
         Window::new(start, along, across, input.chip, config.max_pixels)
     };
@@ -756,7 +756,7 @@ pub fn fit<const C: usize>(
         tilt_deg: p[TILT],
         roll_deg: p[ROLL],
     };
-    let half = base_distance_px(model, p[TILT], frame.px_per_m);
+    let half = base_distance_m(model, p[TILT]) * frame.px_per_m;
     let o = ImagePoint::of_pixel(input.origin);
     let (centre, dir) = (frame.axis.centre, frame.axis.dir);
     let ends = [o + centre + dir * half, o + centre - dir * half];
@@ -838,7 +838,7 @@ mod tests {
             },
             px_per_m: truth.placement.px_per_unit,
         };
-        let base_u_m = -0.5 * model.length_m * libm::cosf(truth.view.tilt_deg * crate::pose::RAD);
+        let base_u_m = -base_distance_m(&model, truth.view.tilt_deg);
         let mut noise_values = crate::testing::noise_sequence(SIDE * SIDE, 7);
         let mut data = [0u16; SIDE * SIDE];
         for (i, px) in data.iter_mut().enumerate() {
@@ -917,7 +917,7 @@ mod tests {
         assert!(scale.abs() < 2e-3, "scale off by {scale}: {fitted:?}");
         assert!((fitted.view.tilt_deg - 25.0).abs() < 0.5, "{fitted:?}");
         assert!((fitted.sigma_px - 0.8).abs() < 0.03, "{fitted:?}");
-        let half = 0.5 * model.length_m * libm::cosf(25.0 * crate::pose::RAD) * 62.5;
+        let half = base_distance_m(&model, 25.0) * 62.5;
         let nose = truth.placement.origin + truth.placement.dir * half;
         let miss = (fitted.ends[0] - nose).norm();
         assert!(miss < 0.1, "nose {miss} px off: {fitted:?}");
@@ -971,7 +971,7 @@ mod tests {
         };
         let model = reference();
         let fitted = fit::<512>(&input, &start, &model, &camera, &GreyFitConfig::DEFAULT).unwrap();
-        let half = 0.5 * model.length_m * libm::cosf(25.0 * crate::pose::RAD) * 100.0;
+        let half = base_distance_m(&model, 25.0) * 100.0;
         let o = truth.placement.origin;
         let ends = [
             o + truth.placement.dir * half,

@@ -169,12 +169,18 @@ impl<'a> ProjectileModel<'a> {
         })
     }
 
+    /// The roll between neighbouring fins, deg (360 over their count), which the body's roll is
+    /// known modulo; None for a body without fins.
+    pub fn fin_spacing_deg(&self) -> Option<f32> {
+        self.fins().map(|f| 360.0 / f32::from(f.count.max(1)))
+    }
+
     /// The rolls that give different silhouettes run from 0 to this, deg: half the fins' period
     /// (the silhouette is mirror-symmetric in roll), 0 for a body without fins, at most 90 (the
     /// table's rolls span [0, 90)).
     pub fn distinct_roll_deg(&self) -> f32 {
-        self.fins()
-            .map_or(0.0, |f| (180.0 / f32::from(f.count.max(1))).min(90.0))
+        self.fin_spacing_deg()
+            .map_or(0.0, |spacing| (0.5 * spacing).min(90.0))
     }
 
     /// The largest distance of the model from its axis, fins included, m.

@@ -85,8 +85,8 @@ fn roll_period_deg(projectile: &str, lut: &str) -> f64 {
     };
     crate::model::for_clip(projectile, file)
         .ok()
-        .and_then(|model| model.fins())
-        .map_or(90.0, |f| 360.0 / f64::from(f.count.max(1)))
+        .and_then(|model| model.fin_spacing_deg())
+        .map_or(90.0, f64::from)
 }
 
 /// Writes `eval.md` and `eval.json` of an evaluation into `dir`.
