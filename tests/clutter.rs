@@ -4,7 +4,11 @@
 //! (95 % of frames, mask IoU 0.85, pitch 0.5 and chosen yaw 4 deg/km) are not met yet.
 
 use imade_host::eval::paper::Parameter;
+use imade_host::eval::pose_errors::FrameErrors;
+use imade_host::eval::stats::summarize;
 use imade_host::run::RangeArg;
+use imade_host::sim::scenario::Weather;
+use imade_host::sim::{Scenario, Simulation};
 use std::path::Path;
 
 /// The evaluation of the bundled clip `name` run with its range: frames with a pose, median
@@ -49,10 +53,83 @@ fn terrain_and_a_plume_do_not_take_the_bodys_place() {
 /// target, the sky along it is the corridor's, and its cross-sections keep the diameter the
 /// range gives. Before, the plume or a cloud patch was taken in every frame (median IoU 0, pitch
 /// 21 deg/km).
+///
+/// Its attitude is judged over more frames (the next test): with a third of these 20 frames lost
+/// to clutter, their median is a toss between the good frames and the bad (4.7 deg/km before
+/// the plume's glow, the faded tail and the body past a filament were read, 11.3 after, while
+/// the same scene over 120 frames went from 4.7 to 1.2).
 #[test]
 fn a_faint_body_is_found_beside_its_plume_and_filaments() {
-    let (poses, pitch, iou) = run_clutter_clip("small-clutter-plume");
+    let (poses, _, iou) = run_clutter_clip("small-clutter-plume");
     assert!(poses >= 18, "{poses} of 20 frames with a pose");
     assert!(iou >= 0.3, "median IoU of the blind mask {iou}");
-    assert!(pitch <= 10.0, "median pitch error {pitch} deg/km");
+}
+
+/// The scene of `fixtures/small-clutter-plume` drawn at three other seeds (its physics drawn
+/// again: contrast 3-5 noise sigmas, blur 0.5-1.5 px, the plume's brightness and size, the
+/// filaments), 40 frames each, with the range; `clear`: without cloud or filaments. The
+/// errors of the frames with a pose, pooled, and how many frames have truth.
+fn faint_body_frames(clear: bool) -> (Vec<FrameErrors>, usize) {
+    let scene = if clear { "clear" } else { "clutter" };
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("faint-body-{scene}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    let file =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/small-clutter-plume/scenario.toml");
+    let (mut frames, mut with_truth) = (Vec::new(), 0);
+    for seed in [11, 12, 13] {
+        let mut scenario = Scenario::from_file(&file).expect("the scenario");
+        scenario.seed = seed;
+        scenario.clip.frames = 40;
+        if clear {
+            scenario.scene.weather = Weather::Clear;
+            scenario.scene.cloud_cover = 0.0;
+            scenario.filaments.count = 0;
+            scenario.randomize.filament_count = Some([0, 0]);
+        }
+        let clip = dir.join(format!("seed-{seed}"));
+        Simulation::new(scenario)
+            .and_then(|s| s.write_clip(&clip, 2))
+            .unwrap_or_else(|e| panic!("seed {seed}: {e:#}"));
+        let out = dir.join(format!("run-{seed}"));
+        let evaluation =
+            imade_tests::run_and_evaluate(&clip, "bundled", RangeArg::Auto, false, &out);
+        with_truth += evaluation.pose.frames_with_truth;
+        frames.extend(evaluation.pose.frames);
+    }
+    (frames, with_truth)
+}
+
+/// The median of one error over `frames`.
+fn median(frames: &[FrameErrors], error: fn(&FrameErrors) -> f64) -> f64 {
+    let values: Vec<f64> = frames.iter().map(error).collect();
+    summarize(&values).map_or(f64::NAN, |s| s.median)
+}
+
+/// A faint body under a plume over 120 frames: the plume marks the tail and its glow on the
+/// tail is fitted, a tail faded against a dark sky is bridged to the plume, and the body is
+/// followed past a filament crossing it. Before, pitch 4.7 and chosen yaw 34 deg/km under
+/// clutter (now 1.2 and 13), 0.27 and 4.5 on a clear sky (now 0.10 and 1.5).
+#[test]
+fn a_faint_body_under_a_plume_keeps_its_attitude_over_three_seeds() {
+    for (clear, max_pitch, max_yaw) in [(false, 2.0, 16.0), (true, 0.2, 2.5)] {
+        let (frames, with_truth) = faint_body_frames(clear);
+        let (pitch, yaw) = (median(&frames, |f| f.pitch), median(&frames, |f| f.yaw));
+        println!(
+            "clear {clear}: {} of {with_truth} frames with a pose, median pitch {pitch:.3}, chosen yaw {yaw:.2} deg/km",
+            frames.len()
+        );
+        assert!(
+            frames.len() * 100 >= 95 * with_truth,
+            "{} of {with_truth}",
+            frames.len()
+        );
+        assert!(
+            pitch <= max_pitch,
+            "clear {clear}: median pitch {pitch} deg/km"
+        );
+        assert!(
+            yaw <= max_yaw,
+            "clear {clear}: median chosen yaw {yaw} deg/km"
+        );
+    }
 }

@@ -5,10 +5,11 @@
 #![no_main]
 
 use arbitrary::Arbitrary;
+use imade_core::extremes::orientation::FadeBridge;
+use imade_core::grey_fit::GreyFitConfig;
 use imade_core::lut::table::Table;
 use imade_core::mask::ChipMask;
 use imade_core::segment::bar::BarConfig;
-use imade_core::grey_fit::GreyFitConfig;
 use imade_core::segment::corridor::CorridorConfig;
 use imade_core::{
     BodyPolarity, Camera, Config, DetectConfig, FrameInput, GuidedLoopConfig, GuidedMethod,
@@ -79,8 +80,10 @@ enum ConfigSpec {
         cylinder_margin: f32,
         min_cylinder_px: f32,
         end_weight: f32,
-        /// Every tunable of the silhouette stage, in its field order.
-        silhouette: [f32; 13],
+        /// Every scalar tunable of the silhouette stage, in its field order.
+        silhouette: [f32; 14],
+        /// The fade bridge's tunables, in their field order (None: not looked for).
+        fade_bridge: Option<[f32; 3]>,
         /// Every tunable of the uncertainties, in their field order.
         uncertainty: [f32; 10],
         /// The grey-level fit: whether it runs, then its tunables (pixels, roll starts,
@@ -186,6 +189,7 @@ fn config(spec: &ConfigSpec) -> Config {
             min_cylinder_px,
             end_weight,
             silhouette: s,
+            fade_bridge,
             uncertainty: u,
             grey_fit: g,
             bar,
@@ -253,7 +257,13 @@ fn config(spec: &ConfigSpec) -> Config {
                 min_nose_evidence: s[9],
                 min_plume_area: s[10],
                 plume_dominance: s[11],
-                diameter_tolerance: s[12],
+                fade_bridge: fade_bridge.map(|a| FadeBridge {
+                    onset_diameters: a[0],
+                    min_plume_area: a[1],
+                    min_fill_diameters: a[2],
+                }),
+                remeasure_length: s[12],
+                diameter_tolerance: s[13],
             },
             table_match: MatchConfig {
                 section_bin_px,

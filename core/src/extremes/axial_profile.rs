@@ -211,6 +211,50 @@ impl WidthProfile {
         sum * self.bin
     }
 
+    /// Walking outwards from `from` px in direction `outward` (+1 or -1) for at most `reach`
+    /// px, where the sum of the width (at most `cap` px) less `level` px, from `from` on, is
+    /// greatest: the body goes on where what follows pays for the gaps it crosses (a faint
+    /// stretch; a filament or terrain crossing it counts no more than `cap`), and stops where
+    /// the sky follows, or where the opposite polarity's width reaches `cap` (a plume: nothing
+    /// of the body lies beyond it). `from` where nothing beyond pays.
+    pub fn paying_end(&self, from: f32, outward: isize, reach: f32, level: f32, cap: f32) -> f32 {
+        let steps = (reach / self.bin).max(0.0) as isize;
+        let start = self.bin_of(from) as isize;
+        let (mut sum, mut best, mut end) = (0.0f32, 0.0f32, from);
+        for i in (1..=steps).map(|k| start + outward * k) {
+            if i < 0 || i as usize >= self.bins || self.opposite_at(i as usize) >= cap {
+                break;
+            }
+            sum += self.at(i as usize).min(cap) - level;
+            if sum > best {
+                (best, end) = (sum, self.t_of(i as usize));
+            }
+        }
+        end
+    }
+
+    /// The opposite polarity's width at bin `i`, px at the body's contrast (0 outside).
+    pub fn opposite_at(&self, i: usize) -> f32 {
+        if i < self.bins {
+            self.opposite.get(i).copied().unwrap_or(0.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// The first position, walking outwards from `from` px in direction `outward` (+1 or -1)
+    /// for at most `reach` px, where the opposite polarity's width reaches `level` px: where a
+    /// plume begins.
+    pub fn opposite_onset(&self, from: f32, outward: isize, reach: f32, level: f32) -> Option<f32> {
+        let steps = (reach / self.bin).max(0.0) as isize;
+        let start = self.bin_of(from) as isize;
+        (0..=steps)
+            .map(|k| start + outward * k)
+            .take_while(|i| *i >= 0 && (*i as usize) < self.bins)
+            .find(|i| self.opposite_at(*i as usize) >= level)
+            .map(|i| self.t_of(i as usize))
+    }
+
     /// Mean width over positions between `t0` and `t1` (either order), px.
     pub fn mean_between(&self, t0: f32, t1: f32) -> f32 {
         let (sum, bins) = self.sum_between(t0, t1, |i| self.at(i));
@@ -249,5 +293,59 @@ impl WidthProfile {
         let slope = (n * stw - st * sw) / det;
         let intercept = (sw - slope * st) / n;
         (libm::fabsf(slope) > 1e-6).then(|| -intercept / slope)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::extremes::Axis;
+
+    /// The width profile along y = 32 of a dark bar 8 px wide (contrast 60) drawn over x in
+    /// `spans`, on a flat sky, with a bright blob (a plume) over x in `bright`.
+    fn profile_of(spans: &[(usize, usize)], bright: Option<(usize, usize)>) -> WidthProfile {
+        let (w, h) = (200usize, 64usize);
+        let mut data = [100u8; 200 * 64];
+        for y in 28..36 {
+            for &(x0, x1) in spans {
+                data[y * w + x0..y * w + x1].fill(40);
+            }
+            if let Some((x0, x1)) = bright {
+                data[y * w + x0..y * w + x1].fill(200);
+            }
+        }
+        let chip = ChipView::gray8(&data, w, h, w, 0, 0).unwrap();
+        let mut background = Background::new();
+        background.estimate(&chip);
+        let axis = Axis {
+            centre: ImagePoint::new(100.0, 32.0),
+            dir: ImagePoint::new(1.0, 0.0),
+        };
+        WidthProfile::build(
+            &chip,
+            &background,
+            &axis,
+            BodyPolarity::Dark,
+            60.0,
+            99.0,
+            8.0,
+        )
+    }
+
+    /// The body found from x = 40 to 100 (t = -60 to 0) goes on past a 10-px gap (a stretch
+    /// where the sky is as dark as the body) to x = 150 (t = 50): 40 px of body pay for it; a
+    /// 4-px stub beyond a 20-px gap does not, nor anything past a plume, nor past `reach`.
+    #[test]
+    fn the_end_goes_on_where_the_body_pays_for_the_gap() {
+        let (level, cap) = (4.0, 8.0);
+        let gapped = profile_of(&[(40, 100), (110, 150)], None);
+        let end = gapped.paying_end(0.0, 1, 120.0, level, cap);
+        assert!((end - 49.5).abs() <= 1.0, "{end}");
+        let reached = gapped.paying_end(0.0, 1, 30.0, level, cap);
+        assert!((reached - 30.0).abs() <= 1.0, "up to the reach: {reached}");
+        let stub = profile_of(&[(40, 100), (120, 124)], None);
+        assert_eq!(stub.paying_end(0.0, 1, 120.0, level, cap), 0.0);
+        let plume = profile_of(&[(40, 100), (110, 150)], Some((102, 108)));
+        assert_eq!(plume.paying_end(0.0, 1, 120.0, level, cap), 0.0);
     }
 }

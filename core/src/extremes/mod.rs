@@ -13,12 +13,15 @@ pub mod cross_profile;
 pub mod orientation;
 
 use crate::chip::ChipView;
+use crate::config::BodyPolarity;
 use crate::model::ProjectileModel;
 use crate::point::ImagePoint;
 use crate::segment::Target;
 use crate::segment::background::Background;
+use crate::segment::select::Shape;
 use axial_profile::WidthProfile;
 use cross_profile::{CrossSection, DiameterBounds, Stretch};
+use orientation::FadeBridge;
 
 /// The silhouette stage's tunables.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -51,6 +54,12 @@ pub struct SilhouetteConfig {
     /// ... at least this many times the other end's marks its end as the tail
     /// ([`orientation::plume_at_high`]).
     pub plume_dominance: f32,
+    /// Where the body's size is expected (from the range), a plume beyond a faded stretch of
+    /// the body marks its tail ([`orientation::plume_beyond_fade`]); None: not looked for.
+    pub fade_bridge: Option<FadeBridge>,
+    /// Where the body's ends lie this many times farther apart than the detected target is
+    /// long, the silhouette is measured again about the axis and extent found.
+    pub remeasure_length: f32,
     /// Where the body's diameter is expected (from the range), the cross-sections' fitted
     /// diameter stays within this factor of the body's narrowest and widest diameter over the
     /// middle of its length.
@@ -70,6 +79,12 @@ impl SilhouetteConfig {
         min_nose_evidence: 0.002,
         min_plume_area: 0.25,
         plume_dominance: 4.0,
+        fade_bridge: Some(FadeBridge {
+            onset_diameters: 0.5,
+            min_plume_area: 1.0,
+            min_fill_diameters: 0.1,
+        }),
+        remeasure_length: 1.3,
         diameter_tolerance: 1.3,
     };
 }
@@ -206,6 +221,62 @@ pub fn measure(
     prior: &Prior,
     config: &SilhouetteConfig,
 ) -> Result<Silhouette, ExtremesError> {
+    let found = Found {
+        shape: &target.shape,
+        polarity: target.polarity,
+    };
+    let silhouette = measure_on(chip, background, &found, model, prior, config)?;
+    // Where detection saw only part of the body (a faint stretch or a filament across it cut it
+    // short), the axis fitted over that part is measured again over the body's whole length; not
+    // where the ends lie farther apart than the body can look (clutter joined to it).
+    let detected = 2.0 * config.half_length_sds * target.shape.major_sd;
+    let length = silhouette.nose_t - silhouette.tail_t;
+    let longest = longest_px(prior, model, silhouette.sigma_px);
+    let part = length > config.remeasure_length * detected;
+    if !(part && longest.is_some_and(|l| length <= l)) {
+        return Ok(silhouette);
+    }
+    let whole = Shape {
+        centre: silhouette
+            .axis
+            .point(0.5 * (silhouette.nose_t + silhouette.tail_t)),
+        axis: silhouette.axis.dir,
+        major_sd: 0.5 * length / config.half_length_sds,
+        minor_sd: target.shape.minor_sd,
+    };
+    let found = Found {
+        shape: &whole,
+        ..found
+    };
+    match measure_on(chip, background, &found, model, prior, config) {
+        Ok(again) if longest.is_some_and(|l| again.nose_t - again.tail_t <= l) => Ok(again),
+        _ => Ok(silhouette),
+    }
+}
+
+/// The longest the body can look where its size is expected (`prior`), px: its length seen
+/// broadside, blurred by `sigma_px` at both ends.
+fn longest_px(prior: &Prior, model: &ProjectileModel, sigma_px: f32) -> Option<f32> {
+    prior
+        .diameter_px
+        .map(|d| d * model.length_m / model.diameter_m + 2.0 * sigma_px)
+}
+
+/// What detection found of the body: its mask's shape and its polarity.
+struct Found<'a> {
+    shape: &'a Shape,
+    polarity: BodyPolarity,
+}
+
+/// [`measure`] about the found `shape`'s axis and extent.
+fn measure_on(
+    chip: &ChipView,
+    background: &Background,
+    found: &Found,
+    model: &ProjectileModel,
+    prior: &Prior,
+    config: &SilhouetteConfig,
+) -> Result<Silhouette, ExtremesError> {
     let prior_dir = prior.nose_dir;
     // The cross-sections are fitted over the middle of the body, where a tapered body (a
     // mortar round, a shell's ogive) is narrower than its full diameter.
@@ -216,7 +287,7 @@ pub fn measure(
         min_px: d * narrowest / radius / config.diameter_tolerance,
         max_px: d * widest / radius * config.diameter_tolerance,
     });
-    let shape = &target.shape;
+    let shape = found.shape;
     let half_length = config.half_length_sds * shape.major_sd;
     let half_width = config.section_reach_sds * shape.minor_sd + config.section_reach_px;
     let fit = |t0: f32, t1: f32| {
@@ -224,7 +295,7 @@ pub fn measure(
             chip,
             background,
             shape,
-            target.polarity,
+            found.polarity,
             Stretch { t0, t1 },
             half_width,
             bounds,
@@ -247,39 +318,61 @@ pub fn measure(
     let d = section.diameter_px;
     let band = 0.5 * d * model.max_radius_m() / model.radius_m() + 2.0 * section.sigma_px + 1.0;
     let reach = 1.3 * half_length + 4.0 * section.sigma_px + 8.0;
+    // Where the body's size is expected, the profile reaches as far as the body can from
+    // wherever its middle was found, and the ends found walking out go on where more of the body
+    // follows (past a filament crossing it, or a stretch where the sky behind it is as dark).
+    let longest = longest_px(prior, model, section.sigma_px);
+    // Longer by whole px, so that the bins lie where they would without (the nose's ramp is
+    // read from a few of them).
+    let found_reach = reach;
+    let reach = longest.map_or(reach, |l| {
+        reach + libm::ceilf(l + 4.0 * section.sigma_px + 8.0 - reach).max(0.0)
+    });
     let profile = WidthProfile::build(
         chip,
         background,
         &axis,
-        target.polarity,
+        found.polarity,
         section.contrast,
         reach,
         band,
     );
-    let centre_bin = profile.bin_of(0.0);
     // Gaps of up to a quarter of the half-length (a broken silhouette) are crossed.
     let max_gap = (config.max_gap * half_length) as usize + 2;
-    let low = profile.body_end(centre_bin, -1, config.end_level * d, max_gap);
-    let high = profile.body_end(centre_bin, 1, config.end_level * d, max_gap);
-    let lo50 = profile
-        .crossing_inward(low, 1, 0.5 * d)
-        .ok_or(ExtremesError::NoEnds)?;
-    let hi50 = profile
-        .crossing_inward(high, -1, 0.5 * d)
-        .ok_or(ExtremesError::NoEnds)?;
-    let length = hi50 - lo50;
-    if length.is_nan() || length <= 0.0 {
-        return Err(ExtremesError::NoEnds);
+    let floor = config.end_level * d;
+    let mut ends = Ends::find(&profile, d, floor, max_gap, found_reach)?;
+    if let Some(longest) = longest {
+        ends = ends.extended(&profile, d, floor, longest);
     }
-    let evidence = orientation::nose_high_evidence(&profile, lo50, hi50, d, model);
-    let plume_high = orientation::plume_at_high(
+    let mut plume_high = orientation::plume_at_high(
         &profile,
-        lo50,
-        hi50,
+        ends.lo50,
+        ends.hi50,
         d,
         config.min_plume_area,
         config.plume_dominance,
     );
+    // A faint body can fade before its tail, its plume beyond.
+    if let (None, Some(bridge), Some(longest)) = (plume_high, &config.fade_bridge, longest)
+        && let Some((high, onset)) =
+            orientation::plume_beyond_fade(&profile, ends.lo50, ends.hi50, d, longest, bridge)
+    {
+        let outer = profile.bin_of(onset);
+        if high {
+            (ends.high, ends.hi50) = (outer, onset);
+        } else {
+            (ends.low, ends.lo50) = (outer, onset);
+        }
+        plume_high = Some(high);
+    }
+    let Ends {
+        low,
+        high,
+        lo50,
+        hi50,
+    } = ends;
+    let length = hi50 - lo50;
+    let evidence = orientation::nose_high_evidence(&profile, lo50, hi50, d, model);
     let nose_high = match plume_high {
         Some(plume_high) => !plume_high,
         None if libm::fabsf(evidence) < config.min_nose_evidence
@@ -351,6 +444,91 @@ pub fn measure(
         nose_evidence: libm::fabsf(evidence),
         plume_at_tail,
     })
+}
+
+/// The body's ends in a width profile: the outermost bins at the end level (`low`, `high`) and
+/// the half-diameter crossings inside them (`lo50`, `hi50`, px along the axis).
+#[derive(Debug, Clone, Copy)]
+struct Ends {
+    low: usize,
+    high: usize,
+    lo50: f32,
+    hi50: f32,
+}
+
+impl Ends {
+    /// The ends of a body `diameter_px` wide, walking out from the profile's middle while the
+    /// width stays above `floor` px, crossing gaps shorter than `max_gap` bins, no farther than
+    /// `reach` px (what lies beyond, such as terrain joined to the body, is not walked into).
+    fn find(
+        profile: &WidthProfile,
+        diameter_px: f32,
+        floor: f32,
+        max_gap: usize,
+        reach: f32,
+    ) -> Result<Ends, ExtremesError> {
+        let centre_bin = profile.bin_of(0.0);
+        let low = profile
+            .body_end(centre_bin, -1, floor, max_gap)
+            .max(profile.bin_of(-reach));
+        let high = profile
+            .body_end(centre_bin, 1, floor, max_gap)
+            .min(profile.bin_of(reach));
+        let (lo50, hi50) = (
+            profile.crossing_inward(low, 1, 0.5 * diameter_px),
+            profile.crossing_inward(high, -1, 0.5 * diameter_px),
+        );
+        let (Some(lo50), Some(hi50)) = (lo50, hi50) else {
+            return Err(ExtremesError::NoEnds);
+        };
+        if (hi50 - lo50).is_nan() || hi50 <= lo50 {
+            return Err(ExtremesError::NoEnds);
+        }
+        Ok(Ends {
+            low,
+            high,
+            lo50,
+            hi50,
+        })
+    }
+
+    /// The ends moved outwards where more of a body `diameter_px` wide follows
+    /// ([`WidthProfile::paying_end`]: its width above half the diameter, at most half a
+    /// diameter a bin, pays for the gaps), a body no longer than `longest_px`; the outer bins
+    /// again where the width stays above `floor` px.
+    fn extended(
+        self,
+        profile: &WidthProfile,
+        diameter_px: f32,
+        floor: f32,
+        longest_px: f32,
+    ) -> Ends {
+        let mut ends = self;
+        for outward in [1isize, -1] {
+            let (end, other) = if outward > 0 {
+                (ends.hi50, ends.lo50)
+            } else {
+                (ends.lo50, ends.hi50)
+            };
+            let reach = longest_px - libm::fabsf(end - other);
+            let last = profile.paying_end(end, outward, reach, 0.5 * diameter_px, diameter_px);
+            if last == end {
+                continue;
+            }
+            let last_bin = profile.bin_of(last);
+            let crossing = usize::try_from(last_bin as isize + outward)
+                .ok()
+                .and_then(|beyond| profile.crossing_inward(beyond, -outward, 0.5 * diameter_px))
+                .unwrap_or(last);
+            let outer = profile.body_end(last_bin, outward, floor, 2);
+            if outward > 0 {
+                (ends.high, ends.hi50) = (outer, crossing);
+            } else {
+                (ends.low, ends.lo50) = (outer, crossing);
+            }
+        }
+        ends
+    }
 }
 
 /// The axis through the two stretches' fitted centres (at -`lever`/2 and +`lever`/2 along it).

@@ -125,6 +125,56 @@ pub fn plume_at_high(
     }
 }
 
+/// What [`plume_beyond_fade`] needs of the plume and of the stretch it bridges.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FadeBridge {
+    /// The plume begins where the opposite polarity's width reaches this many body diameters
+    /// ...
+    pub onset_diameters: f32,
+    /// ... and it covers at least this many body diameters squared.
+    pub min_plume_area: f32,
+    /// The faded stretch between the found end and the plume has a mean width of at least this
+    /// many body diameters (of the body's polarity: the body goes on, faint).
+    pub min_fill_diameters: f32,
+}
+
+/// Where a faint body fades before its tail (the sky behind the tail as dark as the body) and
+/// its plume lies beyond the faded stretch: the found ends `lo50..hi50` (px along the axis) are
+/// those of the body's front, the tail lies at the plume. Looks beyond each end for a plume
+/// (see [`FadeBridge`]) no farther than a body `longest_px` long reaches, and returns which end
+/// it lies beyond (`true`: the high one) and where it begins; None where neither end has one,
+/// or both.
+pub fn plume_beyond_fade(
+    profile: &WidthProfile,
+    lo50: f32,
+    hi50: f32,
+    diameter_px: f32,
+    longest_px: f32,
+    bridge: &FadeBridge,
+) -> Option<(bool, f32)> {
+    let reach = longest_px - (hi50 - lo50);
+    if reach.is_nan() || reach <= 0.0 {
+        return None;
+    }
+    let unit = diameter_px * diameter_px;
+    let beyond = |end: f32, outward: isize| {
+        let way = outward as f32;
+        let onset =
+            profile.opposite_onset(end, outward, reach, bridge.onset_diameters * diameter_px)?;
+        let gap = way * (onset - end);
+        let area = profile.opposite_area_between(onset, onset + way * 0.5 * (hi50 - lo50 + gap));
+        let fill = profile.signed_mean_between(end, onset - way * 1.0);
+        (area >= bridge.min_plume_area * unit && fill >= bridge.min_fill_diameters * diameter_px)
+            .then_some(onset)
+    };
+    match (beyond(hi50, 1), beyond(lo50, -1)) {
+        (Some(onset), None) => Some((true, onset)),
+        (None, Some(onset)) => Some((false, onset)),
+        _ => None,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -183,6 +233,74 @@ mod tests {
             let tail = plume_at_high(&profile, -60.0, 60.0, 9.0, 1.0, 4.0);
             assert_eq!(tail, with_plume.then_some(true), "plume {with_plume}");
         }
+    }
+
+    /// A dark bar 9 px wide, full contrast from x = 20 to 95 and a sixth of it from 95 to 170
+    /// (the sky behind the tail as dark as the body), a bright plume from 170 to 195: the found
+    /// ends (x = 20 to 95) bridge to the plume only where the faded stretch is there, the plume
+    /// is, and a body as long as that can be.
+    #[test]
+    fn a_plume_beyond_a_faded_tail_marks_it() {
+        use crate::chip::ChipView;
+        use crate::config::BodyPolarity;
+        use crate::extremes::Axis;
+        use crate::point::ImagePoint;
+        use crate::segment::background::Background;
+        let (w, h) = (200usize, 64usize);
+        let bridge = FadeBridge {
+            onset_diameters: 0.5,
+            min_plume_area: 1.0,
+            min_fill_diameters: 0.1,
+        };
+        let onset = |faded: bool, plume: bool, longest_px: f32| {
+            let mut data = [100u8; 200 * 64];
+            for y in 0..h {
+                for x in 0..w {
+                    let across = (y as f32 - 32.0).abs();
+                    if across <= 4.0 && (20..95).contains(&x) {
+                        data[y * w + x] = 40;
+                    } else if faded && across <= 4.0 && (95..170).contains(&x) {
+                        data[y * w + x] = 90;
+                    } else if plume && across <= 5.0 && (170..195).contains(&x) {
+                        data[y * w + x] = 200;
+                    }
+                }
+            }
+            let chip = ChipView::gray8(&data, w, h, w, 0, 0).unwrap();
+            let mut background = Background::new();
+            background.estimate(&chip);
+            let axis = Axis {
+                centre: ImagePoint::new(100.0, 32.0),
+                dir: ImagePoint::new(1.0, 0.0),
+            };
+            let profile = WidthProfile::build(
+                &chip,
+                &background,
+                &axis,
+                BodyPolarity::Dark,
+                60.0,
+                99.0,
+                8.0,
+            );
+            plume_beyond_fade(&profile, -80.0, -5.0, 9.0, longest_px, &bridge)
+        };
+        let (high, t) = onset(true, true, 160.0).expect("bridged");
+        assert!(high);
+        assert!(
+            (t - 70.0).abs() <= 1.5,
+            "plume begins at x = 170, t = 70: {t}"
+        );
+        assert_eq!(
+            onset(false, true, 160.0),
+            None,
+            "nothing of the body between"
+        );
+        assert_eq!(onset(true, false, 160.0), None, "no plume");
+        assert_eq!(
+            onset(true, true, 120.0),
+            None,
+            "longer than the body can be"
+        );
     }
 
     #[test]

@@ -17,9 +17,18 @@
 //! held at zero without a plume).
 //! Residuals beyond [`GreyFitConfig::huber_sigmas`] noise sigmas count linearly (Huber), so a
 //! star, a filament or plume glow in the window pulls less. Where the range is known the scale is
-//! held at it. The window's pixels are chosen once, from the start, so that every evaluation
-//! sums over the same pixels; a window larger than [`GreyFitConfig::max_pixels`] is thinned on a
+//! held at it. The window's pixels are chosen from the start, so that every evaluation sums over
+//! the same pixels; where a plume marks the tail the window ends just beyond the base, and the
+//! fit goes once more in the window at its solution's base (a faint tail read short at the start
+//! is otherwise never seen). A window larger than [`GreyFitConfig::max_pixels`] is thinned on a
 //! regular lattice.
+//!
+//! The glow is fitted wherever a plume marks the tail, and the plume's end is the tail: with the
+//! second window, over 120 simulated frames each, a faint body (3-5 noise sigmas) under a plume
+//! on a clear sky went from pitch 0.27 to 0.17 and yaw 4.5 to 2.6 deg/km, and bright bodies'
+//! yaw came out 20-35 % smaller. The glow only brightens the sky beyond the base (an outside
+//! renderer's terrain beyond the tail was fitted as a dark glow; bounded, that clip's pitch went
+//! from 1.7 to 1.3 deg/km).
 
 pub mod appearance;
 pub mod glow;
@@ -114,17 +123,12 @@ pub struct GreyFitConfig {
     pub max_scale_change: f32,
     /// The fitted origin stays within this many px of the start's.
     pub max_shift_px: f32,
-    /// A body without fins, or one whose diameter spans at least this many blur sigmas (wide),
-    /// has its scale fitted where the range is not known, and the plume's glow next to its base
-    /// ([`glow`]) where a plume marks its tail. A narrow finned body's fins, whose span shows
-    /// with the roll and the scale together and which lie under the glow at the tail, traded
-    /// against both: its fitted scale wandered by 2-15 % (the reference at 5-8 px; an outside
-    /// renderer's mortar, Tz 1.8 -> 9.3 m/km), and with the glow its pose errors came out 20 %
-    /// better on some clips and 20 % worse on others. A finless body's scale and tail have only
-    /// the outline to fit (an outside renderer's 8-10 px shell without the range: Tz 12.1 -> 3.2
-    /// m/km, the table match's section reading its diameter 1.2 % narrow; under a plume, with the
-    /// range: yaw 1.44 -> 0.73 deg/km), and a wide body's width fixes its scale (the shell at 21
-    /// px: 0.1-0.2 %).
+    /// Where the range is not known, a body without fins, or one whose diameter spans at least
+    /// this many blur sigmas (wide), has its scale fitted. A narrow finned body's fin span shows
+    /// with the roll and the scale together: its fitted scale wandered by 2-15 % (the reference
+    /// at 5-8 px; an outside renderer's mortar, Tz 1.8 -> 9.3 m/km). A finless body's scale and
+    /// tail have only the outline to fit (an outside renderer's 8-10 px shell: Tz 12.1 -> 3.2
+    /// m/km), and a wide body's width fixes its scale (the shell at 21 px: 0.1-0.2 %).
     pub wide_body_sigmas: f32,
     /// Where the glow is fitted, the window reaches this many blur sigmas beyond the base (the
     /// blurred edge between the body and the plume; the plume beyond is left out).
@@ -149,6 +153,17 @@ impl GreyFitConfig {
         wide_body_sigmas: 12.0,
         plume_margin_sigmas: 1.0,
     };
+}
+
+/// Parameters `p` of a solution restated for a problem started at the solution's own frame
+/// ([`GreyProblem::frame`]): no shift, turn or scale left, and the sky plane again to be found
+/// (its basis is the new window's).
+fn relative_to_start(p: &Params) -> Params {
+    let mut q = *p;
+    for k in [0, 1, 2, LOG_SCALE, PLANE, PLANE + 1, PLANE + 2] {
+        q[k] = 0.0;
+    }
+    q
 }
 
 /// Why the fit gave no result.
@@ -582,6 +597,10 @@ impl<const C: usize> Problem<PARAMS> for GreyProblem<'_, C> {
         for k in [GLOW + 1, GLOW + 2] {
             trial[k] = within(trial[k], narrowest, libm::logf(widest));
         }
+        // A plume's light only brightens the sky beyond the base: the glow there, both peaks,
+        // is never dark (the terrain or a cloud beyond the tail is not a glow).
+        trial[GLOW_FRONT] = trial[GLOW_FRONT].max(0.0);
+        trial[GLOW] = trial[GLOW].max(-trial[GLOW_FRONT]);
     }
 }
 
@@ -628,8 +647,8 @@ pub fn fit<const C: usize>(
     // Whether the scale (range unknown) and the glow (plume at the tail) are fitted. NaN-safe: a
     // NaN threshold makes no body wide.
     let wide = model.diameter_m * start.px_per_m >= config.wide_body_sigmas * sigma;
-    let scale_and_glow = wide || model.fins().is_none();
-    let has_glow = input.plume_at_tail && scale_and_glow;
+    let fit_scale = input.range_m.is_none() && (wide || model.fins().is_none());
+    let has_glow = input.plume_at_tail;
     let probe_window = if input.plume_at_tail {
         window(start, (-base_px, base_px))
     } else {
@@ -644,7 +663,7 @@ pub fn fit<const C: usize>(
         start,
         window,
         columns: first.columns(),
-        scale_held: input.range_m.is_some() || !scale_and_glow,
+        scale_held: !fit_scale,
         has_fins: model.fins().is_some(),
         has_glow,
         huber: config.huber_sigmas * input.background.sigma().max(f32::MIN_POSITIVE),
@@ -712,7 +731,11 @@ pub fn fit<const C: usize>(
     let (forward, backward) = (survey(start), survey(reversed));
     let decisive =
         forward.1.min(backward.1) * (1.0 + config.orientation_margin) < forward.1.max(backward.1);
-    let ways = if !decisive {
+    // A plume marks the tail (the start's axis runs from it): the cost on a faint body does not
+    // overrule it.
+    let ways = if input.plume_at_tail {
+        [Some(forward), None]
+    } else if !decisive {
         [Some(forward), Some(backward)]
     } else if backward.1 < forward.1 {
         [None, Some(backward)]
@@ -742,6 +765,29 @@ pub fn fit<const C: usize>(
     let pixels = problem.window.pixels;
     let solution = least_squares::minimize(&problem, probed.params, &solver(config.max_iterations))
         .ok_or(GreyFitError::NoStart)?;
+    // Beyond the tail the window ends at the start's base: where that lay inside the body (a
+    // faint tail in the plume's glare read short), the body's own tail was left out and could not
+    // pull the fit. Once more from the solution, in the window at its base.
+    let (problem, solution) = if input.plume_at_tail {
+        let moved = problem.frame(&solution.params);
+        let margin = if has_glow {
+            config.plume_margin_sigmas * solution.params[SIGMA]
+        } else {
+            0.0
+        };
+        let base = base_distance_m(model, solution.params[TILT]) * moved.px_per_m;
+        let again = problem_at(moved, window(moved, (-base - margin, reach)));
+        match least_squares::minimize(
+            &again,
+            relative_to_start(&solution.params),
+            &solver(config.max_iterations),
+        ) {
+            Some(settled) => (again, settled),
+            None => (problem, solution),
+        }
+    } else {
+        (problem, solution)
+    };
     let p = solution.params;
     let scale_bound = libm::logf(1.0 + config.max_scale_change);
     let at_bound = libm::fabsf(p[0]).max(libm::fabsf(p[1])) >= config.max_shift_px
@@ -925,8 +971,9 @@ mod tests {
 
     /// A body wide enough for the glow (8 px across, blur 0.5 px) with a plume glowing next to
     /// its base, the range known: from a start 0.6 px off, 4 deg off in tilt and roll and with
-    /// no glow, the fit places both ends within 0.1 px and finds the glow's peaks (the fit's own
-    /// model again; what the glow is worth on a rendered plume, `tests/any_projectile.rs`).
+    /// no glow, the fit places both ends within 0.1 px and finds the glow's peaks within half
+    /// (the fit's own model again; what the glow is worth on a rendered plume,
+    /// `tests/any_projectile.rs`).
     #[test]
     fn the_fit_finds_the_tail_under_a_plume_glow() {
         let truth = FitStart {
@@ -982,7 +1029,9 @@ mod tests {
             assert!(miss < 0.1, "an end {miss} px off: {fitted:?}");
         }
         assert!((fitted.view.tilt_deg - 25.0).abs() < 0.3, "{fitted:?}");
-        assert!((fitted.glow[0] - glow[0]).abs() < 15.0, "{fitted:?}");
-        assert!((fitted.glow[1] - glow[1]).abs() < 15.0, "{fitted:?}");
+        // The peaks show only through the base's blurred edge (the window stops a blur sigma
+        // beyond it): found, loosely.
+        assert!((fitted.glow[0] / glow[0] - 1.0).abs() < 0.5, "{fitted:?}");
+        assert!((fitted.glow[1] / glow[1] - 1.0).abs() < 0.5, "{fitted:?}");
     }
 }
