@@ -145,7 +145,7 @@ impl WidthProfile {
     /// Width at bin `i` less the opposite polarity's there, px (0 outside): the whole contrast
     /// across the axis, where a plume of the opposite polarity counts negative.
     pub fn signed_at(&self, i: usize) -> f32 {
-        self.at(i) - self.opposite.get(i).copied().unwrap_or(0.0)
+        self.at(i) - self.opposite_at(i)
     }
 
     /// Where, walking inwards from bin `outer` in direction `inward`, the width first reaches
@@ -207,7 +207,7 @@ impl WidthProfile {
     /// The opposite polarity's area between positions `t0` and `t1` (either order), in px² at
     /// the body's contrast.
     pub fn opposite_area_between(&self, t0: f32, t1: f32) -> f32 {
-        let (sum, _) = self.sum_between(t0, t1, |i| self.opposite.get(i).copied().unwrap_or(0.0));
+        let (sum, _) = self.sum_between(t0, t1, |i| self.opposite_at(i));
         sum * self.bin
     }
 
@@ -218,16 +218,14 @@ impl WidthProfile {
     /// the sky follows, or where the opposite polarity's width reaches `cap` (a plume: nothing
     /// of the body lies beyond it). `from` where nothing beyond pays.
     pub fn paying_end(&self, from: f32, outward: isize, reach: f32, level: f32, cap: f32) -> f32 {
-        let steps = (reach / self.bin).max(0.0) as isize;
-        let start = self.bin_of(from) as isize;
         let (mut sum, mut best, mut end) = (0.0f32, 0.0f32, from);
-        for i in (1..=steps).map(|k| start + outward * k) {
-            if i < 0 || i as usize >= self.bins || self.opposite_at(i as usize) >= cap {
-                break;
-            }
-            sum += self.at(i as usize).min(cap) - level;
+        for i in self
+            .bins_outward(from, outward, reach, 1)
+            .take_while(|i| self.opposite_at(*i) < cap)
+        {
+            sum += self.at(i).min(cap) - level;
             if sum > best {
-                (best, end) = (sum, self.t_of(i as usize));
+                (best, end) = (sum, self.t_of(i));
             }
         }
         end
@@ -246,13 +244,25 @@ impl WidthProfile {
     /// for at most `reach` px, where the opposite polarity's width reaches `level` px: where a
     /// plume begins.
     pub fn opposite_onset(&self, from: f32, outward: isize, reach: f32, level: f32) -> Option<f32> {
+        self.bins_outward(from, outward, reach, 0)
+            .find(|i| self.opposite_at(*i) >= level)
+            .map(|i| self.t_of(i))
+    }
+
+    /// The bins from the one at `from` px outwards in direction `outward` (+1 or -1), the
+    /// first `skip` left out, for at most `reach` px and no farther than the profile's end.
+    fn bins_outward(
+        &self,
+        from: f32,
+        outward: isize,
+        reach: f32,
+        skip: isize,
+    ) -> impl Iterator<Item = usize> + '_ {
         let steps = (reach / self.bin).max(0.0) as isize;
         let start = self.bin_of(from) as isize;
-        (0..=steps)
-            .map(|k| start + outward * k)
-            .take_while(|i| *i >= 0 && (*i as usize) < self.bins)
-            .find(|i| self.opposite_at(*i as usize) >= level)
-            .map(|i| self.t_of(i as usize))
+        (skip..=steps)
+            .map(move |k| start + outward * k)
+            .map_while(|i| usize::try_from(i).ok().filter(|i| *i < self.bins))
     }
 
     /// Mean width over positions between `t0` and `t1` (either order), px.
@@ -296,25 +306,62 @@ impl WidthProfile {
     }
 }
 
+/// A test chip of bars and blobs along one line, and its width profile.
 #[cfg(test)]
-mod tests {
+pub(crate) mod testing {
     use super::*;
     use crate::extremes::Axis;
 
-    /// The width profile along y = 32 of a dark bar 8 px wide (contrast 60) drawn over x in
-    /// `spans`, on a flat sky, with a bright blob (a plume) over x in `bright`.
-    fn profile_of(spans: &[(usize, usize)], bright: Option<(usize, usize)>) -> WidthProfile {
-        let (w, h) = (200usize, 64usize);
-        let mut data = [100u8; 200 * 64];
-        for y in 28..36 {
-            for &(x0, x1) in spans {
-                data[y * w + x0..y * w + x1].fill(40);
-            }
-            if let Some((x0, x1)) = bright {
-                data[y * w + x0..y * w + x1].fill(200);
+    /// A stretch of the test chip (200 x 64 px, sky 100) along y = 32, from `x.0` to `x.1`
+    /// (exclusive), within `half_width` px of the line, at grey level `grey`.
+    pub struct Band {
+        pub x: (usize, usize),
+        pub half_width: f32,
+        pub grey: u8,
+    }
+
+    impl Band {
+        /// A dark bar 9 px wide, 60 grey levels below the sky.
+        pub fn dark(x0: usize, x1: usize) -> Band {
+            Band {
+                x: (x0, x1),
+                half_width: 4.0,
+                grey: 40,
             }
         }
-        let chip = ChipView::gray8(&data, w, h, w, 0, 0).unwrap();
+
+        /// The same bar 10 grey levels below the sky (the sky behind it as dark as the body).
+        pub fn faded(x0: usize, x1: usize) -> Band {
+            Band {
+                grey: 90,
+                ..Band::dark(x0, x1)
+            }
+        }
+
+        /// A bright plume 11 px wide, 100 grey levels above the sky.
+        pub fn plume(x0: usize, x1: usize) -> Band {
+            Band {
+                x: (x0, x1),
+                half_width: 5.0,
+                grey: 200,
+            }
+        }
+    }
+
+    /// The width profile of a dark body (contrast 60) over `reach` px either side of x = 100
+    /// along y = 32, from pixels within 8 px of the line, on the test chip with `bands` drawn
+    /// (in turn).
+    pub fn profile_of(bands: impl IntoIterator<Item = Band>, reach: f32) -> WidthProfile {
+        const W: usize = 200;
+        let mut data = [100u8; W * 64];
+        for band in bands {
+            for (y, row) in data.chunks_exact_mut(W).enumerate() {
+                if libm::fabsf(y as f32 - 32.0) <= band.half_width {
+                    row[band.x.0..band.x.1].fill(band.grey);
+                }
+            }
+        }
+        let chip = ChipView::gray8(&data, W, 64, W, 0, 0).unwrap();
         let mut background = Background::new();
         background.estimate(&chip);
         let axis = Axis {
@@ -327,10 +374,15 @@ mod tests {
             &axis,
             BodyPolarity::Dark,
             60.0,
-            99.0,
+            reach,
             8.0,
         )
     }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::testing::{Band, profile_of};
 
     /// The body found from x = 40 to 100 (t = -60 to 0) goes on past a 10-px gap (a stretch
     /// where the sky is as dark as the body) to x = 150 (t = 50): 40 px of body pay for it; a
@@ -338,14 +390,21 @@ mod tests {
     #[test]
     fn the_end_goes_on_where_the_body_pays_for_the_gap() {
         let (level, cap) = (4.0, 8.0);
-        let gapped = profile_of(&[(40, 100), (110, 150)], None);
+        let gapped = profile_of([Band::dark(40, 100), Band::dark(110, 150)], 99.0);
         let end = gapped.paying_end(0.0, 1, 120.0, level, cap);
         assert!((end - 49.5).abs() <= 1.0, "{end}");
         let reached = gapped.paying_end(0.0, 1, 30.0, level, cap);
         assert!((reached - 30.0).abs() <= 1.0, "up to the reach: {reached}");
-        let stub = profile_of(&[(40, 100), (120, 124)], None);
+        let stub = profile_of([Band::dark(40, 100), Band::dark(120, 124)], 99.0);
         assert_eq!(stub.paying_end(0.0, 1, 120.0, level, cap), 0.0);
-        let plume = profile_of(&[(40, 100), (110, 150)], Some((102, 108)));
+        let plume = profile_of(
+            [
+                Band::dark(40, 100),
+                Band::dark(110, 150),
+                Band::plume(102, 108),
+            ],
+            99.0,
+        );
         assert_eq!(plume.paying_end(0.0, 1, 120.0, level, cap), 0.0);
     }
 }

@@ -178,6 +178,7 @@ pub fn plume_beyond_fade(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::extremes::axial_profile::testing::{Band, profile_of};
     use crate::model::testing::reference;
 
     #[test]
@@ -192,43 +193,15 @@ mod tests {
         assert!(!widths.finned[SAMPLES - 4]);
     }
 
-    /// A dark bar 8 px wide from x = 40 to 160 on a flat sky, with a bright blob beyond its
+    /// A dark bar 9 px wide from x = 40 to 160 on a flat sky, with a bright blob beyond its
     /// right end: the right end is the tail; without the blob, no end is.
     #[test]
     fn a_bright_blob_beyond_one_end_marks_the_tail() {
-        use crate::chip::ChipView;
-        use crate::config::BodyPolarity;
-        use crate::extremes::Axis;
-        use crate::point::ImagePoint;
-        use crate::segment::background::Background;
-        let (w, h) = (200usize, 64usize);
         for with_plume in [true, false] {
-            let mut data = [100u8; 200 * 64];
-            for y in 0..h {
-                for x in 0..w {
-                    let across = (y as f32 - 32.0).abs();
-                    if across <= 4.0 && (40..160).contains(&x) {
-                        data[y * w + x] = 40;
-                    } else if with_plume && across <= 5.0 && (160..190).contains(&x) {
-                        data[y * w + x] = 200;
-                    }
-                }
-            }
-            let chip = ChipView::gray8(&data, w, h, w, 0, 0).unwrap();
-            let mut background = Background::new();
-            background.estimate(&chip);
-            let axis = Axis {
-                centre: ImagePoint::new(100.0, 32.0),
-                dir: ImagePoint::new(1.0, 0.0),
-            };
-            let profile = WidthProfile::build(
-                &chip,
-                &background,
-                &axis,
-                BodyPolarity::Dark,
-                60.0,
+            let plume = with_plume.then(|| Band::plume(160, 190));
+            let profile = profile_of(
+                [Some(Band::dark(40, 160)), plume].into_iter().flatten(),
                 95.0,
-                8.0,
             );
             let tail = plume_at_high(&profile, -60.0, 60.0, 9.0, 1.0, 4.0);
             assert_eq!(tail, with_plume.then_some(true), "plume {with_plume}");
@@ -241,47 +214,18 @@ mod tests {
     /// is, and a body as long as that can be.
     #[test]
     fn a_plume_beyond_a_faded_tail_marks_it() {
-        use crate::chip::ChipView;
-        use crate::config::BodyPolarity;
-        use crate::extremes::Axis;
-        use crate::point::ImagePoint;
-        use crate::segment::background::Background;
-        let (w, h) = (200usize, 64usize);
         let bridge = FadeBridge {
             onset_diameters: 0.5,
             min_plume_area: 1.0,
             min_fill_diameters: 0.1,
         };
         let onset = |faded: bool, plume: bool, longest_px: f32| {
-            let mut data = [100u8; 200 * 64];
-            for y in 0..h {
-                for x in 0..w {
-                    let across = (y as f32 - 32.0).abs();
-                    if across <= 4.0 && (20..95).contains(&x) {
-                        data[y * w + x] = 40;
-                    } else if faded && across <= 4.0 && (95..170).contains(&x) {
-                        data[y * w + x] = 90;
-                    } else if plume && across <= 5.0 && (170..195).contains(&x) {
-                        data[y * w + x] = 200;
-                    }
-                }
-            }
-            let chip = ChipView::gray8(&data, w, h, w, 0, 0).unwrap();
-            let mut background = Background::new();
-            background.estimate(&chip);
-            let axis = Axis {
-                centre: ImagePoint::new(100.0, 32.0),
-                dir: ImagePoint::new(1.0, 0.0),
-            };
-            let profile = WidthProfile::build(
-                &chip,
-                &background,
-                &axis,
-                BodyPolarity::Dark,
-                60.0,
-                99.0,
-                8.0,
-            );
+            let bands = [
+                Some(Band::dark(20, 95)),
+                faded.then(|| Band::faded(95, 170)),
+                plume.then(|| Band::plume(170, 195)),
+            ];
+            let profile = profile_of(bands.into_iter().flatten(), 99.0);
             plume_beyond_fade(&profile, -80.0, -5.0, 9.0, longest_px, &bridge)
         };
         let (high, t) = onset(true, true, 160.0).expect("bridged");

@@ -393,8 +393,6 @@ struct GreyProblem<'a, const C: usize> {
     scale_held: bool,
     /// Whether the roll changes the outline (the model has fins).
     has_fins: bool,
-    /// Whether a plume's glow over the tail is fitted.
-    has_glow: bool,
     /// Residuals beyond this count linearly, grey levels.
     huber: f32,
     config: &'a GreyFitConfig,
@@ -449,7 +447,7 @@ impl<const C: usize> GreyProblem<'_, C> {
     /// The glow of unit peak next to the tail at `p` and `tilt_deg` at the silhouette-frame
     /// point `(u, v)`, m (None without a plume).
     fn glow(&self, p: &Params, tilt_deg: f32, u: f32, v: f32) -> Option<glow::GlowImage> {
-        self.has_glow.then(|| {
+        self.input.plume_at_tail.then(|| {
             let d = self.model.diameter_m;
             let sigmas_m = [d * libm::expf(p[GLOW + 1]), d * libm::expf(p[GLOW + 2])];
             let base_u_m = -base_distance_m(self.model, tilt_deg);
@@ -644,11 +642,18 @@ pub fn fit<const C: usize>(
     let window = |start: Frame, along: (f32, f32)| {
         Window::new(start, along, across, input.chip, config.max_pixels)
     };
-    // Whether the scale (range unknown) and the glow (plume at the tail) are fitted. NaN-safe: a
-    // NaN threshold makes no body wide.
+    // Beyond the chosen tail, the window at `frame`'s base where the body is tilted `tilt_deg`
+    // and blurred `sigma_px` keeps the blurred edge where the glow is fitted.
+    let tail_window = |frame: Frame, tilt_deg: f32, sigma_px: f32| {
+        let base = base_distance_m(model, tilt_deg) * frame.px_per_m;
+        window(
+            frame,
+            (-base - config.plume_margin_sigmas * sigma_px, reach),
+        )
+    };
+    // Whether the scale is fitted (range unknown). NaN-safe: a NaN threshold makes no body wide.
     let wide = model.diameter_m * start.px_per_m >= config.wide_body_sigmas * sigma;
     let fit_scale = input.range_m.is_none() && (wide || model.fins().is_none());
-    let has_glow = input.plume_at_tail;
     let probe_window = if input.plume_at_tail {
         window(start, (-base_px, base_px))
     } else {
@@ -665,7 +670,6 @@ pub fn fit<const C: usize>(
         columns: first.columns(),
         scale_held: !fit_scale,
         has_fins: model.fins().is_some(),
-        has_glow,
         huber: config.huber_sigmas * input.background.sigma().max(f32::MIN_POSITIVE),
         config,
     };
@@ -753,12 +757,7 @@ pub fn fit<const C: usize>(
         .ok_or(GreyFitError::NoStart)?;
     let problem = if input.plume_at_tail {
         let chosen = problem.start;
-        let margin = if has_glow {
-            config.plume_margin_sigmas * sigma
-        } else {
-            0.0
-        };
-        problem_at(chosen, window(chosen, (-base_px - margin, reach)))
+        problem_at(chosen, tail_window(chosen, view.tilt_deg, sigma))
     } else {
         problem
     };
@@ -770,13 +769,8 @@ pub fn fit<const C: usize>(
     // pull the fit. Once more from the solution, in the window at its base.
     let (problem, solution) = if input.plume_at_tail {
         let moved = problem.frame(&solution.params);
-        let margin = if has_glow {
-            config.plume_margin_sigmas * solution.params[SIGMA]
-        } else {
-            0.0
-        };
-        let base = base_distance_m(model, solution.params[TILT]) * moved.px_per_m;
-        let again = problem_at(moved, window(moved, (-base - margin, reach)));
+        let (tilt_deg, sigma_px) = (solution.params[TILT], solution.params[SIGMA]);
+        let again = problem_at(moved, tail_window(moved, tilt_deg, sigma_px));
         match least_squares::minimize(
             &again,
             relative_to_start(&solution.params),
@@ -899,6 +893,23 @@ mod tests {
         data
     }
 
+    /// The test chips' camera: 100,000 px focal length, the chip's centre on the axis.
+    fn camera() -> Camera {
+        Camera {
+            fx: 100_000.0,
+            fy: 100_000.0,
+            cx: 80.0,
+            cy: 80.0,
+        }
+    }
+
+    /// The detection's sky model of `chip`.
+    fn sky_of(chip: &ChipView) -> Background {
+        let mut background = Background::new();
+        background.estimate(chip);
+        background
+    }
+
     fn truth() -> FitStart {
         let angle = 0.5f32;
         FitStart {
@@ -925,8 +936,7 @@ mod tests {
         let truth = truth();
         let data = chip_of(&truth, [0.0, 0.0, 1.0, 1.0], 2.0);
         let chip = ChipView::gray16(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
-        let mut background = Background::new();
-        background.estimate(&chip);
+        let background = sky_of(&chip);
         let start = FitStart {
             placement: Placement {
                 origin: truth.placement.origin + ImagePoint::new(0.6, -0.4),
@@ -947,12 +957,7 @@ mod tests {
             range_m: None,
             plume_at_tail: false,
         };
-        let camera = Camera {
-            fx: 100_000.0,
-            fy: 100_000.0,
-            cx: 80.0,
-            cy: 80.0,
-        };
+        let camera = camera();
         let model = reference();
         let config = GreyFitConfig {
             wide_body_sigmas: 0.0,
@@ -988,8 +993,7 @@ mod tests {
         let glow = [150.0, 40.0, 0.6 * d, 0.4 * d];
         let data = chip_of(&truth, glow, 2.0);
         let chip = ChipView::gray16(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
-        let mut background = Background::new();
-        background.estimate(&chip);
+        let background = sky_of(&chip);
         let start = FitStart {
             placement: Placement {
                 origin: truth.placement.origin + ImagePoint::new(0.6, -0.4),
@@ -1002,12 +1006,7 @@ mod tests {
             sigma_px: 0.6,
             contrast: -150.0,
         };
-        let camera = Camera {
-            fx: 100_000.0,
-            fy: 100_000.0,
-            cx: 80.0,
-            cy: 80.0,
-        };
+        let camera = camera();
         let range_m = 100_000.0 / truth.placement.px_per_unit;
         let input = FitInput {
             chip: &chip,
