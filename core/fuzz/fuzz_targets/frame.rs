@@ -90,7 +90,7 @@ enum ConfigSpec {
         /// iterations, the rest in field order).
         grey_fit: (bool, u16, u8, u8, u8, [f32; 9]),
         /// Every tunable of the bar search, in its field order (None: no bar search).
-        bar: Option<[f32; 13]>,
+        bar: Option<[f32; 15]>,
         /// Every tunable of the sky corridor, in its field order (None: the tiles' sky).
         corridor: Option<[f32; 6]>,
     },
@@ -236,6 +236,8 @@ fn config(spec: &ConfigSpec) -> Config {
                     min_bar_diameters: a[10],
                     plume_min_sigma: a[11],
                     plume_weight: a[12],
+                    max_width_penalty: a[13],
+                    fragment_fraction: a[14],
                 }),
                 corridor: corridor.map(|a| CorridorConfig {
                     margin_px: a[0],

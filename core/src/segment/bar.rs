@@ -22,8 +22,12 @@
 //!    terrain) for longer than a filament is wide, which gives its ends and length, so that a
 //!    band or filament longer than the body, or one that runs into the chip's edge, is refused;
 //!    and the glow of a plume of the other polarity just beyond an end is measured.
+//! 4. Where the chip has a plume, the bar that ends at it is measured too
+//!    ([`BarSearch::measure_from`]): of the lines that start at the plume's edge, the one of
+//!    highest contrast. A faint body's own response can be lost among a cloud's, but its plume
+//!    is the brightest thing in the chip and marks where its tail is.
 
-use super::select::ExpectedBody;
+use super::select::{ExpectedBody, Shape};
 use crate::chip::ChipView;
 use crate::point::ImagePoint;
 
@@ -67,10 +71,19 @@ pub struct BarConfig {
     pub overhang_lengths: f32,
     /// A measured bar shorter than this many diameters is refused.
     pub min_bar_diameters: f32,
-    /// A bar with a plume at an end ([`Bar::plume_sigma`] at least this) ...
+    /// A bar with a plume at an end ([`Bar::plume_sigma`] at least this) is judged whatever
+    /// its cross-section's width (a cloud beside a faint body widens the fit; a filament has
+    /// no plume), and the chip's plume is a component at least this significant.
     pub plume_min_sigma: f32,
-    /// ... gains this in the selection's score.
+    /// A bar gains this times ln(1 + [`Bar::plume_sigma`] / `plume_min_sigma`) in the
+    /// selection's score: the brighter the plume at its end, the surer it is the body's.
     pub plume_weight: f32,
+    /// A bar's cross-section width disagreeing with the body's costs it at most this in the
+    /// selection's score (in clutter the fitted width is a weak witness).
+    pub max_width_penalty: f32,
+    /// A component target shorter than this fraction of the bar it lies on is a fragment of
+    /// the body: the bar is the target.
+    pub fragment_fraction: f32,
 }
 
 impl BarConfig {
@@ -89,6 +102,8 @@ impl BarConfig {
         min_bar_diameters: 2.5,
         plume_min_sigma: 8.0,
         plume_weight: 1.0,
+        max_width_penalty: 2.0,
+        fragment_fraction: 0.5,
     };
 }
 
@@ -245,8 +260,15 @@ impl<const CELLS: usize> BarSearch<CELLS> {
     }
 
     /// The strongest bars in the prepared chip ([`BarSearch::prepare`]), each measured
-    /// ([`BarSearch::measure`]); those refused are left out. Strongest first.
-    pub fn search(&mut self, config: &BarConfig, bars: &mut heapless::Vec<Bar, MAX_BARS>) {
+    /// ([`BarSearch::measure`]); those refused are left out. Where the chip has a `plume` (a
+    /// compact glow of the other polarity), the bar that ends at it ([`BarSearch::measure_from`])
+    /// is among them, whatever its strength. Strongest first.
+    pub fn search(
+        &mut self,
+        config: &BarConfig,
+        plume: Option<&Shape>,
+        bars: &mut heapless::Vec<Bar, MAX_BARS>,
+    ) {
         bars.clear();
         let Some(scale) = self.scale else {
             return;
@@ -270,6 +292,46 @@ impl<const CELLS: usize> BarSearch<CELLS> {
             }
         }
         bars.sort_unstable_by(|a, b| b.significance.total_cmp(&a.significance));
+        // The plume's bar measured from the plume: it replaces the same bar measured from its
+        // middle (the plume's end is the one a faint tail's walk misses), else the weakest.
+        if let Some(bar) = plume.and_then(|p| self.measure_from(p, config).ok()) {
+            match bars
+                .iter()
+                .position(|b| same_bar(b, &bar, scale.diameter_px))
+            {
+                Some(i) if bars[i].half_length_px < bar.half_length_px => bars[i] = bar,
+                Some(_) => {}
+                None => {
+                    if bars.is_full() {
+                        bars.pop();
+                    }
+                    let _ = bars.push(bar);
+                }
+            }
+            bars.sort_unstable_by(|a, b| b.significance.total_cmp(&a.significance));
+        }
+    }
+
+    /// The bar that ends at `plume` in the prepared chip ([`BarSearch::prepare`]): of the
+    /// directions all round the plume, the line of the integration length that starts at the
+    /// plume's edge with the highest mean contrast, refined and measured as the search's.
+    pub fn measure_from(&self, plume: &Shape, config: &BarConfig) -> Result<Bar, BarRefusal> {
+        let scale = self.scale.as_ref().ok_or(BarRefusal::NotPrepared)?;
+        let directions = 2 * scale.directions();
+        let mut best: Option<(f32, ImagePoint, ImagePoint)> = None;
+        for k in 0..directions {
+            let angle = 2.0 * core::f32::consts::PI * k as f32 / directions as f32;
+            let dir = ImagePoint::new(libm::cosf(angle), libm::sinf(angle));
+            let centre = plume.centre + dir * (plume.reach_along(dir) + 0.5 * scale.length_px);
+            if let Some(c) = self.line_contrast(centre, dir, scale)
+                && best.is_none_or(|(b, _, _)| c > b)
+            {
+                best = Some((c, centre, dir));
+            }
+        }
+        let (_, centre, dir) = best.ok_or(BarRefusal::NoContrast)?;
+        let (centre, dir) = self.refine(centre, dir, scale);
+        self.walk(centre, dir, scale, config)
     }
 
     /// Measures the bar nearest the line through `centre` along `dir` in the prepared chip
@@ -736,6 +798,16 @@ mod tests {
     /// deg through the centre (12 grey levels, 4 sigma), a bright plume beyond its tail, a dark
     /// cloud band across the chip and a dark filament 2 px wide across the body.
     fn cluttered_chip() -> ([u8; SIDE * SIDE], ImagePoint, ImagePoint) {
+        chip_with(12.0, 12.0, 1.0)
+    }
+
+    /// [`cluttered_chip`] with the body and the filament `body` and `filament` grey levels dark,
+    /// the filament `filament_half_width` px to either side of its line.
+    fn chip_with(
+        body: f32,
+        filament: f32,
+        filament_half_width: f32,
+    ) -> ([u8; SIDE * SIDE], ImagePoint, ImagePoint) {
         let dir = ImagePoint::new(libm::cosf(0.61), libm::sinf(0.61));
         let centre = ImagePoint::new(128.0, 128.0);
         let (nose, tail) = (centre + dir * 55.0, centre - dir * 55.0);
@@ -749,8 +821,8 @@ mod tests {
             let (px, py) = (x as f32 - plume.x, y as f32 - plume.y);
             let glow = 60.0 * libm::expf(-(px * px + py * py) / 32.0);
             let value = 120.0 + band + glow
-                - 12.0 * coverage(x, y, tail, nose, 3.5)
-                - 12.0 * coverage(x, y, f0, f1, 1.0)
+                - body * coverage(x, y, tail, nose, 3.5)
+                - filament * coverage(x, y, f0, f1, filament_half_width)
                 + 3.0 * noise.next().unwrap_or(0.0);
             *v = value.clamp(0.0, 255.0) as u8;
         }
@@ -775,7 +847,7 @@ mod tests {
         let mut search: BarSearch<4096> = BarSearch::new();
         assert!(search.prepare(&chip, 3.0, -1.0, &expected(), 160.0, &config));
         let mut bars = heapless::Vec::new();
-        search.search(&config, &mut bars);
+        search.search(&config, None, &mut bars);
         let body = bars.first().expect("a bar");
         let along = (body.centre - centre).dot(dir);
         let across = (body.centre - centre).dot(dir.perpendicular());
@@ -802,6 +874,40 @@ mod tests {
             matches!(band, Err(BarRefusal::AtEdge | BarRefusal::TooLong)),
             "{band:?}"
         );
+    }
+
+    /// Where a wide filament outshines a fainter body (8 grey levels, under 3 sigma), the bar
+    /// measured from the plume is the body's, and the search given the plume has it.
+    #[test]
+    fn the_bar_ending_at_the_plume_is_the_body() {
+        let (data, centre, dir) = chip_with(8.0, 16.0, 3.5);
+        let chip = ChipView::gray8(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        let config = BarConfig::DEFAULT;
+        let mut search: BarSearch<4096> = BarSearch::new();
+        assert!(search.prepare(&chip, 3.0, -1.0, &expected(), 160.0, &config));
+        // The glow's Gaussian has a sigma of 4 px about a point 63 px behind the centre.
+        let plume = Shape {
+            centre: centre - dir * 63.0,
+            axis: ImagePoint::new(1.0, 0.0),
+            major_sd: 4.0,
+            minor_sd: 4.0,
+        };
+        let is_body = |bar: &Bar| {
+            let (along, across) = (
+                (bar.centre - centre).dot(dir),
+                (bar.centre - centre).dot(dir.perpendicular()),
+            );
+            libm::fabsf(bar.dir.dot(dir)) > libm::cosf(6f32.to_radians())
+                && libm::fabsf(across) < 3.0
+                && libm::fabsf(along) < 20.0
+                && (35.0..=62.0).contains(&bar.half_length_px)
+                && bar.plume_sigma >= config.plume_min_sigma
+        };
+        let from_plume = search.measure_from(&plume, &config).expect("a bar");
+        assert!(is_body(&from_plume), "{from_plume:?}");
+        let mut bars = heapless::Vec::new();
+        search.search(&config, Some(&plume), &mut bars);
+        assert!(bars.iter().any(is_body), "{bars:?}");
     }
 
     /// A body that could not be seen whole in the chip (a range 1e-30 m away) is not searched
@@ -843,7 +949,7 @@ mod tests {
         let mut tiny: BarSearch<4> = BarSearch::new();
         assert!(!tiny.prepare(&chip, 3.0, -1.0, &expected(), 160.0, &config));
         let mut bars = heapless::Vec::new();
-        tiny.search(&config, &mut bars);
+        tiny.search(&config, None, &mut bars);
         assert!(bars.is_empty());
         let mut search: BarSearch<4096> = BarSearch::new();
         let none = ExpectedBody {

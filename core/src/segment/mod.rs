@@ -493,12 +493,13 @@ impl<
     /// The component `target` (or its absence) judged against the strongest bars of the body's
     /// width in the chip ([`bar`]), where the body's size is expected and the config has a bar
     /// search and a polarity. A component of the body's polarity and high contrast stands
-    /// without a search, unless as a bar it runs into the chip's edge. Else each bar is judged
-    /// by the model (its
-    /// fitted cross-section must have the body's diameter) and scored ([`Segmenter::bar_score`]);
-    /// where the best lies on the component, or scores no better than the component measured
-    /// as a bar, the component stands, else the bar becomes the target, its mask the bar's
-    /// rectangle.
+    /// without a search, unless as a bar it runs into the chip's edge. Else each bar (among them
+    /// the one ending at the chip's plume, [`Segmenter::plume`]) is judged by the model (its
+    /// fitted cross-section must have the body's diameter, or a plume mark its tail) and scored
+    /// ([`Segmenter::bar_score`]); where the best lies on the component, or scores no better
+    /// than the component measured as a bar, the component stands, unless it is a fragment of
+    /// that bar ([`BarConfig::fragment_fraction`]); else the bar becomes the target, its mask
+    /// the bar's rectangle.
     fn judge_by_bar(
         &mut self,
         chip: &ChipView,
@@ -527,7 +528,7 @@ impl<
         }
         let diag = libm::hypotf(chip.width() as f32, chip.height() as f32);
         let mut best: Option<(f32, Bar, ExpectedBody)> = None;
-        let mut own_best: Option<f32> = None;
+        let mut own_best: Option<(f32, Bar, ExpectedBody)> = None;
         for size in &sizes {
             let judging = Judging {
                 config,
@@ -541,14 +542,12 @@ impl<
             match self.judge_at_size(chip, &judging, &target) {
                 SizeVerdict::ComponentStands => return target,
                 SizeVerdict::Judged { best: b, own } => {
-                    own_best = match (own_best, own) {
-                        (Some(a), Some(b)) => Some(a.max(b)),
-                        (a, b) => a.or(b),
-                    };
-                    if let Some((score, bar)) = b
-                        && best.as_ref().is_none_or(|(s, _, _)| score > *s)
-                    {
-                        best = Some((score, bar, *size));
+                    for (kept, found) in [(&mut best, b), (&mut own_best, own)] {
+                        if let Some((score, bar)) = found
+                            && kept.as_ref().is_none_or(|(s, _, _)| score > *s)
+                        {
+                            *kept = Some((score, bar, *size));
+                        }
                     }
                 }
             }
@@ -557,22 +556,34 @@ impl<
             return target;
         };
         // The component stands where it lies on the winning bar (its mask is the finer one),
-        // or where its own bar scores at least as well.
-        let bar_region = Region {
-            axis: Axis {
-                centre: bar.centre,
-                dir: bar.dir,
-            },
-            half_length: bar.half_length_px,
-            half_width: size.diameter_px,
-        };
+        // or where its own bar scores at least as well; unless it is only a fragment of that
+        // bar (a filament's crossing or the cloud behind broke the faint body's pixels), which
+        // is then the target.
         let on_bar = target.as_ref().is_ok_and(|t| {
+            let region = Region {
+                axis: Axis {
+                    centre: bar.centre,
+                    dir: bar.dir,
+                },
+                half_length: bar.half_length_px,
+                half_width: size.diameter_px,
+            };
             libm::fabsf(t.shape.axis.dot(bar.dir)) >= bar::PARALLEL_COS
-                && bar_region.contains(t.shape.centre.x, t.shape.centre.y)
+                && region.contains(t.shape.centre.x, t.shape.centre.y)
         });
-        if on_bar || own_best.is_some_and(|s| s >= best_score) {
-            return target;
-        }
+        let own = own_best
+            .filter(|(score, _, _)| *score >= best_score)
+            .map(|(_, bar, size)| (bar, size));
+        let (bar, size) = match (on_bar.then_some((bar, size)).or(own), &target) {
+            (Some((under, _)), Ok(t))
+                if 2.0 * UNIFORM_BAR_HALF_SDS * t.shape.major_sd
+                    >= bar_config.fragment_fraction * 2.0 * under.half_length_px =>
+            {
+                return target;
+            }
+            (Some(under), _) => under,
+            (None, _) => (bar, size),
+        };
         let components = target.map_or(0, |t| t.components);
         let gated = expect
             .gate
@@ -619,21 +630,48 @@ impl<
             return SizeVerdict::ComponentStands;
         }
         let mut bars: heapless::Vec<Bar, MAX_BARS> = heapless::Vec::new();
-        self.bars.search(bar_config, &mut bars);
+        let plume = self.plume(judging.polarity, sigma, longest, bar_config);
+        self.bars.search(bar_config, plume.as_ref(), &mut bars);
         let score = |bar: &Bar| self.bar_score(chip, bar, judging);
         SizeVerdict::Judged {
             best: bars
                 .iter()
                 .filter_map(|b| score(b).map(|s| (s, *b)))
                 .max_by(|a, b| a.0.total_cmp(&b.0)),
-            own: own.and_then(Result::ok).as_ref().and_then(score),
+            own: own
+                .and_then(Result::ok)
+                .and_then(|b| score(&b).map(|s| (s, b))),
         }
     }
 
+    /// The chip's plume, where the last labeling has one: its most significant component of
+    /// the other polarity than the body's `polarity` (at least [`BarConfig::plume_min_sigma`]
+    /// noise `sigma`s summed over its pixels), no longer than the body can look (`longest_px`).
+    fn plume(
+        &self,
+        polarity: BodyPolarity,
+        sigma: f32,
+        longest_px: f32,
+        bar_config: &BarConfig,
+    ) -> Option<Shape> {
+        let other = if polarity.sign() > 0.0 { -1 } else { 1 };
+        let significance =
+            |m: &Moments| libm::fabsf(m.sum_residual) / (sigma.max(1e-3) * libm::sqrtf(m.n as f32));
+        self.labeler
+            .components()
+            .map(|(_, m)| m)
+            .filter(|m| m.class == other)
+            .max_by(|a, b| libm::fabsf(a.sum_residual).total_cmp(&libm::fabsf(b.sum_residual)))
+            .filter(|m| significance(m) >= bar_config.plume_min_sigma)
+            .map(Shape::of)
+            .filter(|p| 2.0 * UNIFORM_BAR_HALF_SDS * p.major_sd <= longest_px)
+    }
+
     /// The selection score of `bar` as the body ([`select`]'s terms: its significance, its
-    /// nearness to the aim point; the agreement of its fitted diameter with the body's; the
-    /// track's bonus; a plume's at an end), or None where it is not significant or its
-    /// cross-section does not fit a body of the expected width.
+    /// nearness to the aim point; the agreement of its fitted diameter with the body's, at
+    /// most [`BarConfig::max_width_penalty`]; the track's bonus; a plume's at an end), or None
+    /// where it is not significant, or its cross-section does not fit a body of the expected
+    /// width and no plume marks it.
     fn bar_score(&self, chip: &ChipView, bar: &Bar, judging: &Judging) -> Option<f32> {
         let Judging {
             config,
@@ -667,17 +705,20 @@ impl<
         let tolerance = &config.body_size;
         let fits = width >= tolerance.min_width * expected.diameter_px
             && width <= tolerance.max_width * expected.span_px + tolerance.margin_px;
-        if !fits || bar.significance.is_nan() || bar.significance < bar_config.threshold_sigma {
+        let plume = bar.plume_sigma / bar_config.plume_min_sigma;
+        if !(fits || plume >= 1.0)
+            || bar.significance.is_nan()
+            || bar.significance < bar_config.threshold_sigma
+        {
             return None;
         }
         let ratio = libm::logf(width / expected.diameter_px.max(1e-3));
         let gated = gate.is_some_and(|g| g.admits_line(bar.centre, bar.dir, polarity));
-        let plume = bar.plume_sigma >= bar_config.plume_min_sigma;
         Some(
             select::significance_and_nearness(bar.significance, bar.centre, aim, diag)
-                - config.width_weight * ratio * ratio
+                - (config.width_weight * ratio * ratio).min(bar_config.max_width_penalty)
                 + if gated { config.track_weight } else { 0.0 }
-                + if plume { bar_config.plume_weight } else { 0.0 },
+                + bar_config.plume_weight * libm::logf(1.0 + plume.max(0.0)),
         )
     }
 
@@ -962,10 +1003,10 @@ pub(crate) fn clamped_span(centre: f32, reach: f32, len: usize) -> (usize, usize
 enum SizeVerdict {
     /// It is the body: of its polarity, high contrast, clear of the edge.
     ComponentStands,
-    /// The best bar's score and the bar, and the component's own score as a bar.
+    /// The best bar's score and the bar, and the component's own score and bar.
     Judged {
         best: Option<(f32, Bar)>,
-        own: Option<f32>,
+        own: Option<(f32, Bar)>,
     },
 }
 
@@ -1071,6 +1112,53 @@ mod tests {
                 && (target.shape.centre.x - 79.5).abs() < 1.0,
             "{:?}",
             target.shape
+        );
+    }
+
+    /// A faint body (9 grey levels, 3 noise sigmas, 7 px wide and 110 px long) whose last 20 px
+    /// are darker (20 grey levels: a filament crossing it): the dark stretch is the component
+    /// that stands out, but only a fragment of the bar it lies on, and the bar, the whole body,
+    /// is the target.
+    #[test]
+    fn a_fragment_gives_way_to_the_bar_it_lies_on() {
+        const SIDE: usize = 256;
+        let mut noise = crate::testing::noise_sequence(SIDE * SIDE, 5);
+        let mut data = [0u8; SIDE * SIDE];
+        for (i, v) in data.iter_mut().enumerate() {
+            let (x, y) = (i % SIDE, i / SIDE);
+            let on_body = (125..132).contains(&y) && (73..183).contains(&x);
+            let dark = match (on_body, x >= 163) {
+                (false, _) => 0.0,
+                (true, false) => 9.0,
+                (true, true) => 20.0,
+            };
+            *v = (120.0 - dark + 3.0 * noise.next().unwrap_or(0.0)).clamp(0.0, 255.0) as u8;
+        }
+        let chip = ChipView::gray8(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        let expected = ExpectedBody {
+            diameter_px: 7.0,
+            span_px: 14.0,
+            length_px: 115.0,
+        };
+        let mut segmenter: Segmenter = Segmenter::new();
+        let target = segmenter
+            .detect(
+                &chip,
+                &DetectConfig::DEFAULT,
+                ImagePoint::new(128.0, 128.0),
+                &Expectation {
+                    size: Some(expected),
+                    ..Expectation::NONE
+                },
+            )
+            .unwrap();
+        let length = 2.0 * UNIFORM_BAR_HALF_SDS * target.shape.major_sd;
+        assert_eq!(target.found_by, FoundBy::Bar, "{target:?}");
+        assert!(
+            (target.shape.centre.x - 128.0).abs() < 8.0
+                && (target.shape.centre.y - 128.0).abs() < 3.0
+                && (90.0..=125.0).contains(&length),
+            "{target:?}"
         );
     }
 

@@ -50,6 +50,16 @@ impl Shape {
         self.major_sd / self.minor_sd.max(1e-3)
     }
 
+    /// How far it reaches from its centroid along unit vector `dir`, px: the half-length of
+    /// a uniform ellipse of its second moments in that direction.
+    pub fn reach_along(&self, dir: ImagePoint) -> f32 {
+        let (along, across) = (
+            self.axis.dot(dir) * self.major_sd,
+            self.axis.perpendicular().dot(dir) * self.minor_sd,
+        );
+        UNIFORM_BAR_HALF_SDS * libm::sqrtf(along * along + across * across)
+    }
+
     /// The major axis as a line through the centroid.
     pub fn line(&self) -> Axis {
         Axis {
