@@ -394,7 +394,7 @@ impl<
             expected.is_none_or(|e| e.fits(m, &config.body_size))
                 && around.is_none_or(|p| m.bbox.contains(p))
         };
-        let at_edge = |m: &Moments| expected.is_some() && m.bbox.touches_edge(width, height);
+        let at_edge = |m: &Moments| m.bbox.touches_edge(width, height);
         let fits = |m: &Moments| sized(m) && !at_edge(m);
         // Of the candidates that fit, the one whose width agrees best with the body's, of the
         // body's polarity where it is known.
@@ -414,12 +414,12 @@ impl<
                       judge: &dyn Fn(&Moments) -> Option<f32>| {
             select::select(candidates, sigma, aim, diag, config.polarity, judge)
         };
-        // Without an expected size, the best candidate as the source paper picks it; with one,
-        // the best of those of the body's size. Where the track has a gate, a candidate inside
+        // Without an expected size, the best candidate clear of the chip's edge as the source
+        // paper picks it; with one, the best of those of the body's size. Where the track has a gate, a candidate inside
         // it gains `track_weight`: the target is re-examined when that changes the pick.
         let judge = |m: &Moments| match expected {
             Some(_) => judged(m),
-            None => Some(0.0),
+            None => (!at_edge(m)).then_some(0.0),
         };
         let choose = |candidates: &heapless::Vec<Candidate, MAX_COMPONENTS>| {
             let best = select(candidates, &judge)?;
@@ -512,12 +512,12 @@ impl<
             return target;
         };
         // The body's size: the expected one, or, where no range is known, a few tried (not
-        // where a candidate reached the chip's edge: with no size to judge by, whatever is
-        // found beside a cut body or a structure as large as the chip is not trusted).
+        // where a structure as large as the chip reached its edge: with no size to judge by,
+        // a bar in its texture would pass for the body; terrain along one edge is no such).
         let mut sizes: heapless::Vec<ExpectedBody, UNKNOWN_SCALES> = heapless::Vec::new();
         match (expect.size, expect.proportions) {
             (Some(size), _) => sizes.extend([size]),
-            (None, _) if matches!(target, Err(SegmentError::AtEdge)) => return target,
+            (None, _) if self.spans_the_chip(chip) => return target,
             (None, Some(proportions)) => sizes.extend(
                 config
                     .unknown_range_diameters_px
@@ -642,6 +642,18 @@ impl<
                 .and_then(Result::ok)
                 .and_then(|b| score(&b).map(|s| (s, b))),
         }
+    }
+
+    /// Whether a component of the last labeling reaches the chip's edge and spans more than
+    /// half the chip both across and down.
+    fn spans_the_chip(&self, chip: &ChipView) -> bool {
+        let (width, height) = (chip.width(), chip.height());
+        self.labeler.components().any(|(_, m)| {
+            let r = &m.bbox;
+            r.touches_edge(width, height)
+                && 2 * usize::from(r.x1.saturating_sub(r.x0)) > width
+                && 2 * usize::from(r.y1.saturating_sub(r.y0)) > height
+        })
     }
 
     /// The chip's plume, where the last labeling has one: its most significant component of
@@ -1065,7 +1077,8 @@ mod tests {
 
     /// Terrain (a dark band 12 px high across the bottom of the chip) and a dark bar 6 px wide and
     /// 80 px long: the terrain is the most significant component, the bar the one of the body's
-    /// size. Without an expected size the terrain is taken; with it, the bar.
+    /// size. The terrain enters from the chip's edge, where no whole body can be: with an
+    /// expected size or without, the bar is taken.
     #[test]
     fn the_candidate_of_the_bodys_size_wins_over_terrain() {
         let (w, h) = (160usize, 128usize);
@@ -1090,7 +1103,11 @@ mod tests {
         let blind = segmenter
             .detect(&chip, &config, aim, &Expectation::NONE)
             .unwrap();
-        assert!(blind.shape.centre.y > 116.0, "{:?}", blind.shape);
+        assert!(
+            (blind.shape.centre.y - 42.5).abs() < 1.0 && (blind.shape.centre.x - 79.5).abs() < 1.0,
+            "{:?}",
+            blind.shape
+        );
         let expected = ExpectedBody {
             diameter_px: 6.0,
             span_px: 12.0,
