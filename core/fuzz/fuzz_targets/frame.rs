@@ -5,6 +5,7 @@
 #![no_main]
 
 use arbitrary::Arbitrary;
+use imade_core::extremes::follow::FollowConfig;
 use imade_core::extremes::orientation::FadeBridge;
 use imade_core::grey_fit::GreyFitConfig;
 use imade_core::lut::table::Table;
@@ -84,6 +85,8 @@ enum ConfigSpec {
         silhouette: [f32; 14],
         /// The fade bridge's tunables, in their field order (None: not looked for).
         fade_bridge: Option<[f32; 3]>,
+        /// The follow's tunables, in their field order (None: not followed).
+        follow: Option<[f32; 5]>,
         /// Every tunable of the uncertainties, in their field order.
         uncertainty: [f32; 10],
         /// The grey-level fit: whether it runs, then its tunables (pixels, roll starts,
@@ -190,6 +193,7 @@ fn config(spec: &ConfigSpec) -> Config {
             end_weight,
             silhouette: s,
             fade_bridge,
+            follow,
             uncertainty: u,
             grey_fit: g,
             bar,
@@ -263,6 +267,13 @@ fn config(spec: &ConfigSpec) -> Config {
                     onset_diameters: a[0],
                     min_plume_area: a[1],
                     min_fill_diameters: a[2],
+                }),
+                follow: follow.map(|a| FollowConfig {
+                    stretch_diameters: a[0],
+                    diameter_tolerance: a[1],
+                    max_offset_diameters: a[2],
+                    min_contrast_fraction: a[3],
+                    min_sigma: a[4],
                 }),
                 remeasure_length: s[12],
                 diameter_tolerance: s[13],

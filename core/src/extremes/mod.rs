@@ -6,10 +6,13 @@
 //! 2. The width profile along that axis ([`axial_profile`]) gives the ends; which one is the
 //!    nose, the profile compared with the model's both ways round tells ([`orientation`]). The
 //!    nose tip is where a line fitted to the tapering width reaches zero; the tail edge
-//!    is where the width falls to half its plateau.
+//!    is where the width falls to half its plateau. Where the range gives the body's size, an
+//!    end goes on where more of the body follows (past a gap), also at a lower contrast
+//!    ([`follow`]: a cloud behind a faint body).
 
 pub mod axial_profile;
 pub mod cross_profile;
+pub mod follow;
 pub mod orientation;
 
 use crate::chip::ChipView;
@@ -21,6 +24,7 @@ use crate::segment::background::Background;
 use crate::segment::select::Shape;
 use axial_profile::WidthProfile;
 use cross_profile::{CrossSection, DiameterBounds, Stretch};
+use follow::{FollowConfig, Follower};
 use orientation::FadeBridge;
 
 /// The silhouette stage's tunables.
@@ -57,6 +61,10 @@ pub struct SilhouetteConfig {
     /// Where the body's size is expected (from the range), a plume beyond a faded stretch of
     /// the body marks its tail ([`orientation::plume_beyond_fade`]); None: not looked for.
     pub fade_bridge: Option<FadeBridge>,
+    /// Where the range gives the body's size, a body whose contrast falls beyond an end (the sky
+    /// behind it darker) is followed there by its cross-section ([`follow`]); None: not
+    /// followed.
+    pub follow: Option<FollowConfig>,
     /// Where the body's ends lie this many times farther apart than the detected target is
     /// long, the silhouette is measured again about the axis and extent found.
     pub remeasure_length: f32,
@@ -84,6 +92,7 @@ impl SilhouetteConfig {
             min_plume_area: 1.0,
             min_fill_diameters: 0.1,
         }),
+        follow: Some(FollowConfig::DEFAULT),
         remeasure_length: 1.3,
         diameter_tolerance: 1.3,
     };
@@ -343,6 +352,19 @@ fn measure_on(
     let mut ends = Ends::find(&profile, d, floor, max_gap, found_reach)?;
     if let Some(longest) = longest {
         ends = ends.extended(&profile, d, floor, longest);
+        // A stretch where the sky behind is darker reads narrow: followed by its own contrast.
+        if let Some(follow) = &config.follow {
+            let follower = Follower {
+                chip,
+                background,
+                axis: &axis,
+                polarity: found.polarity,
+                middle: &section,
+                half_width,
+                config: follow,
+            };
+            ends = ends.followed(&profile, &follower, longest);
+        }
     }
     let mut plume_high = orientation::plume_at_high(
         &profile,
@@ -521,6 +543,42 @@ impl Ends {
                 .and_then(|beyond| profile.crossing_inward(beyond, -outward, 0.5 * diameter_px))
                 .unwrap_or(last);
             let outer = profile.body_end(last_bin, outward, floor, 2);
+            if outward > 0 {
+                (ends.high, ends.hi50) = (outer, crossing);
+            } else {
+                (ends.low, ends.lo50) = (outer, crossing);
+            }
+        }
+        ends
+    }
+}
+
+impl Ends {
+    /// The ends moved outwards where the body goes on at a lower contrast
+    /// ([`Follower::follow`]), a body no longer than `longest_px`: the outer end of the last
+    /// stretch that was the body's, and the crossing of half its diameter at the contrast there.
+    fn followed(self, profile: &WidthProfile, follower: &Follower, longest_px: f32) -> Ends {
+        let d = follower.middle.diameter_px;
+        let mut ends = self;
+        for outward in [1isize, -1] {
+            let (end, other) = if outward > 0 {
+                (ends.hi50, ends.lo50)
+            } else {
+                (ends.lo50, ends.hi50)
+            };
+            let limit = longest_px - libm::fabsf(end - other);
+            let Some(followed) = follower.follow(end, outward as f32, limit) else {
+                continue;
+            };
+            let outer = profile.bin_of(followed.outer_t);
+            let level = 0.5 * d * followed.contrast_fraction;
+            let crossing = usize::try_from(outer as isize + outward)
+                .ok()
+                .and_then(|beyond| profile.crossing_inward(beyond, -outward, level))
+                .unwrap_or(followed.outer_t);
+            if (crossing - end) * (outward as f32) <= 0.0 {
+                continue;
+            }
             if outward > 0 {
                 (ends.high, ends.hi50) = (outer, crossing);
             } else {
