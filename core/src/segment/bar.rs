@@ -25,7 +25,9 @@
 //! 4. Where the chip has a plume, the bar that ends at it is measured too
 //!    ([`BarSearch::measure_from`]): of the lines that start at the plume's edge, the one of
 //!    highest contrast. A faint body's own response can be lost among a cloud's, but its plume
-//!    is the brightest thing in the chip and marks where its tail is.
+//!    is the brightest thing in the chip and marks where its tail is: the bar reaches on to the
+//!    plume's edge where its tail faded under the glow, and where it runs on beyond the body's
+//!    length (into a cloud past the nose) it is the body over the integration length.
 
 use super::select::{ExpectedBody, Shape};
 use crate::chip::ChipView;
@@ -184,6 +186,8 @@ struct Scale {
     length_px: f32,
     flank_px: f32,
     longest_px: f32,
+    /// A stretch below a bar's end level shorter than this is crossed, px.
+    gap_px: f32,
 }
 
 impl<const CELLS: usize> BarSearch<CELLS> {
@@ -331,7 +335,16 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         }
         let (_, centre, dir) = best.ok_or(BarRefusal::NoContrast)?;
         let (centre, dir) = self.refine(centre, dir, scale);
-        self.walk(centre, dir, scale, config)
+        // The plume marks the tail, so a line that runs on beyond the body's length from it
+        // (into a cloud or a filament past the nose) is the body over the integration length.
+        let bar = match self.walk(centre, dir, scale, config) {
+            Err(BarRefusal::TooLong) => {
+                let half = 0.5 * scale.length_px;
+                self.measured(centre, dir, (-half, half), scale)
+            }
+            measured => measured,
+        }?;
+        Ok(self.reaching(bar, plume, scale))
     }
 
     /// Measures the bar nearest the line through `centre` along `dir` in the prepared chip
@@ -578,10 +591,9 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         }
         let middle = sum / count as f32;
         let (level, ceiling) = (config.end_fraction * middle, config.end_ceiling * middle);
-        let max_steps = (0.5 * scale.longest_px / step) as i32 + 2;
+        let max_steps = scale.max_steps(step);
         // A stretch below the level shorter than this is crossed (a filament, a cloud's edge).
-        let gap = (libm::ceilf(config.max_gap_diameters * scale.diameter_px / step) as i32)
-            .clamp(2, max_steps.max(2));
+        let gap = scale.gap_steps(step);
         // Each way: half a step beyond the last step at the level before `gap` below it.
         let end = |way: f32| -> Result<f32, BarRefusal> {
             let mut last = 0;
@@ -605,6 +617,23 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         if half_length_px < config.min_bar_diameters * 0.5 * scale.diameter_px {
             return Err(BarRefusal::TooShort);
         }
+        self.measured(centre, dir, (behind, ahead), scale)
+    }
+
+    /// The bar along the line through `centre` along `dir` between its ends `behind` and
+    /// `ahead` (px along it): its contrast, significance and plume; refused where the chip
+    /// does not hold the body's extremes beyond them.
+    fn measured(
+        &self,
+        centre: ImagePoint,
+        dir: ImagePoint,
+        (behind, ahead): (f32, f32),
+        scale: &Scale,
+    ) -> Result<Bar, BarRefusal> {
+        let normal = dir.perpendicular();
+        let step = self.side as f32;
+        let at = |t: f32| ImagePoint::new(centre.x + t * dir.x, centre.y + t * dir.y);
+        let half_length_px = 0.5 * (ahead - behind);
         // The body's extremes may lie well beyond where its bar fades (fins widen it, a nose
         // tapers): `overhang_px` beyond each end must be in the chip.
         let clear = scale.overhang_px + step;
@@ -629,23 +658,61 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         let contrast = samples.iter().sum::<f32>() / count.max(1) as f32;
         let noise = self.block_sigma * libm::sqrtf(1.5);
         let scatter = robust_sd(samples, contrast).max(noise);
-        // Beyond each end, within `gap` steps: the strongest glow of the other polarity.
-        let beyond = |end: f32, way: f32| {
-            (1..=gap)
-                .filter_map(|i| {
-                    self.section_at(at(end + way * i as f32 * step), normal, scale.flank_px)
-                })
-                .fold(0.0f32, |m, s| m.max(s.glow()))
-        };
-        let glow = beyond(ahead, 1.0).max(beyond(behind, -1.0));
+        let mid_point = at(mid);
+        let glow = |way: f32| self.glow_beyond(mid_point, dir, way * half_length_px, way, scale);
         Ok(Bar {
-            centre: at(mid),
+            centre: mid_point,
             dir,
             half_length_px,
             contrast,
             significance: contrast / scatter * libm::sqrtf(count as f32),
-            plume_sigma: glow / noise,
+            plume_sigma: glow(1.0).max(glow(-1.0)),
         })
+    }
+
+    /// The strongest glow of the other polarity beyond `end_t` px along the line through
+    /// `centre` along `dir`, going `way` (+1 or -1) for a gap's length
+    /// ([`BarConfig::max_gap_diameters`]), in noise sigmas of one block's contrast.
+    fn glow_beyond(
+        &self,
+        centre: ImagePoint,
+        dir: ImagePoint,
+        end_t: f32,
+        way: f32,
+        scale: &Scale,
+    ) -> f32 {
+        let step = self.side as f32;
+        let normal = dir.perpendicular();
+        let glow = (1..=scale.gap_steps(step))
+            .filter_map(|i| {
+                let t = end_t + way * i as f32 * step;
+                self.section_at(centre + dir * t, normal, scale.flank_px)
+            })
+            .fold(0.0f32, |m, s| m.max(s.glow()));
+        glow / (self.block_sigma * libm::sqrtf(1.5))
+    }
+
+    /// `bar` reaching on to the `plume`'s edge where a stretch of its tail faded under the
+    /// plume's glow parts them (no farther than the body can look, and only where the plume lies
+    /// on its line), with the plume's glow measured beyond it: the plume marks the tail.
+    fn reaching(&self, bar: Bar, plume: &Shape, scale: &Scale) -> Bar {
+        let to_plume = plume.centre - bar.centre;
+        let (along, across) = (to_plume.dot(bar.dir), to_plume.dot(bar.dir.perpendicular()));
+        let way = if along >= 0.0 { 1.0 } else { -1.0 };
+        let gap = libm::fabsf(along) - plume.reach_along(bar.dir) - bar.half_length_px;
+        let on_line = libm::fabsf(across) <= scale.diameter_px;
+        if !(on_line && gap > 0.0 && 2.0 * bar.half_length_px + gap <= scale.longest_px) {
+            return bar;
+        }
+        let half_length_px = bar.half_length_px + 0.5 * gap;
+        let centre = bar.centre + bar.dir * (way * 0.5 * gap);
+        let glow = self.glow_beyond(centre, bar.dir, way * half_length_px, way, scale);
+        Bar {
+            centre,
+            half_length_px,
+            plume_sigma: bar.plume_sigma.max(glow),
+            ..bar
+        }
     }
 }
 
@@ -695,6 +762,16 @@ fn grid_at(grid: &[f32], cols: usize, rows: usize, c: isize, r: isize) -> Option
 }
 
 impl Scale {
+    /// The most steps of `step` px a walk takes from a bar's middle each way.
+    fn max_steps(&self, step: f32) -> i32 {
+        (0.5 * self.longest_px / step) as i32 + 2
+    }
+
+    /// A gap's length ([`BarConfig::max_gap_diameters`]) in steps of `step` px.
+    fn gap_steps(&self, step: f32) -> i32 {
+        (libm::ceilf(self.gap_px / step) as i32).clamp(2, self.max_steps(step).max(2))
+    }
+
     /// The directions searched: a step of about a diameter over the integration length.
     fn directions(&self) -> usize {
         ((core::f32::consts::PI * self.length_px / self.diameter_px) as usize)
@@ -714,6 +791,7 @@ fn scale_of(expected: &ExpectedBody, longest_px: f32, config: &BarConfig) -> Sca
             .max(config.min_length_diameters * diameter_px),
         flank_px: config.flank_diameters * diameter_px,
         longest_px,
+        gap_px: config.max_gap_diameters * diameter_px,
     }
 }
 
@@ -769,6 +847,7 @@ fn keep_peak(peaks: &mut heapless::Vec<Bar, MAX_PEAKS>, peak: Bar, scale: &Scale
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::segment::select::UNIFORM_BAR_HALF_SDS;
     use crate::testing::noise_sequence;
 
     const SIDE: usize = 256;
@@ -908,6 +987,75 @@ mod tests {
         let mut bars = heapless::Vec::new();
         search.search(&config, Some(&plume), &mut bars);
         assert!(bars.iter().any(is_body), "{bars:?}");
+    }
+
+    /// A faint body (8 grey levels, 110 px along `DIR` through `CENTRE`) whose last 20 px fade
+    /// into the wide glow of a plume 12 px beyond its tail, and, where `runs_on`, a filament as
+    /// dark running on from its nose along its line for 70 px.
+    fn fading_body(runs_on: bool) -> [u8; SIDE * SIDE] {
+        let (centre, dir) = fading_line();
+        let (nose, tail) = (centre + dir * 55.0, centre - dir * 55.0);
+        let faded = tail + dir * 20.0;
+        let beyond = nose + dir * if runs_on { 70.0 } else { 0.0 };
+        let plume = tail - dir * 12.0;
+        let mut noise = noise_sequence(SIDE * SIDE, 7);
+        let mut data = [0u8; SIDE * SIDE];
+        for (i, v) in data.iter_mut().enumerate() {
+            let (x, y) = (i % SIDE, i / SIDE);
+            let (px, py) = (x as f32 - plume.x, y as f32 - plume.y);
+            let glow = 60.0 * libm::expf(-(px * px + py * py) / 72.0);
+            let value = 120.0 + glow - 8.0 * coverage(x, y, faded, beyond, 3.5)
+                + 3.0 * noise.next().unwrap_or(0.0);
+            *v = value.clamp(0.0, 255.0) as u8;
+        }
+        data
+    }
+
+    /// The fading body's middle and direction.
+    fn fading_line() -> (ImagePoint, ImagePoint) {
+        (
+            ImagePoint::new(110.0, 120.0),
+            ImagePoint::new(libm::cosf(0.3), libm::sinf(0.3)),
+        )
+    }
+
+    /// Walked from its middle, the fading body ends short of its plume (or, running on into
+    /// the filament, is too long); measured from the plume, it reaches on to the plume's edge,
+    /// its plume measured there.
+    #[test]
+    fn the_plume_holds_a_body_that_fades_at_its_tail() {
+        let (centre, dir) = fading_line();
+        let plume = centre - dir * 67.0;
+        let glow = Shape {
+            centre: plume,
+            axis: ImagePoint::new(1.0, 0.0),
+            major_sd: 4.0,
+            minor_sd: 4.0,
+        };
+        // The plume's edge: 1.732 sigmas of its shape from its centre, px along the body.
+        let edge = (plume - centre).dot(dir) + UNIFORM_BAR_HALF_SDS * 4.0;
+        let tail_end = |bar: &Bar| (bar.centre - centre).dot(dir) - bar.half_length_px;
+        let config = BarConfig::DEFAULT;
+        for runs_on in [false, true] {
+            let data = fading_body(runs_on);
+            let chip = ChipView::gray8(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+            let mut search: BarSearch<4096> = BarSearch::new();
+            assert!(search.prepare(&chip, 3.0, -1.0, &expected(), 160.0, &config));
+            match search.measure(centre, dir, &config) {
+                Ok(walked) if !runs_on => {
+                    assert!(tail_end(&walked) > edge + 10.0, "{walked:?}");
+                    assert!(walked.plume_sigma < config.plume_min_sigma, "{walked:?}");
+                }
+                walked => assert_eq!(walked, Err(BarRefusal::TooLong), "runs on {runs_on}"),
+            }
+            let bar = search.measure_from(&glow, &config).expect("a bar");
+            assert!(
+                libm::fabsf(bar.dir.dot(dir)) > libm::cosf(6f32.to_radians()),
+                "{bar:?}"
+            );
+            assert!(libm::fabsf(tail_end(&bar) - edge) < 4.0, "{edge} {bar:?}");
+            assert!(bar.plume_sigma >= config.plume_min_sigma, "{bar:?}");
+        }
     }
 
     /// A body that could not be seen whole in the chip (a range 1e-30 m away) is not searched
