@@ -66,6 +66,7 @@ enum ConfigSpec {
         max_gap_s: f32,
         mask_margin_sigmas: f32,
         mask_margin_px: f32,
+        faint_mask_sigma: f32,
         /// The sky exclusion's minimum width, scale, margin and re-detection thresholds.
         sky_exclusion: [f32; 5],
         /// The body size tolerance (min width, max width, max length, margin), the faint box
@@ -181,6 +182,7 @@ fn config(spec: &ConfigSpec) -> Config {
             max_gap_s,
             mask_margin_sigmas,
             mask_margin_px,
+            faint_mask_sigma,
             sky_exclusion: x,
             body: b,
             track: t,
@@ -209,6 +211,7 @@ fn config(spec: &ConfigSpec) -> Config {
                 mask_min_sigma,
                 mask_margin_sigmas,
                 mask_margin_px,
+                faint_mask_sigma,
                 sky_exclusion_min_width_px: x[0],
                 sky_exclusion_scale: x[1],
                 sky_exclusion_px: x[2],

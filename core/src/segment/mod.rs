@@ -52,6 +52,9 @@ pub struct DetectConfig {
     pub mask_margin_sigmas: f32,
     /// ... plus this many px.
     pub mask_margin_px: f32,
+    /// A body whose contrast is below this many noise sigmas is cut on its 3 px box mean (the
+    /// noise a third; the half-contrast crossings of its edges stay).
+    pub faint_mask_sigma: f32,
     /// A detected body whose mask is at least this wide, px, can cover more than half of a
     /// background tile and drag the sky model to its own level: the sky under it is estimated
     /// again without it ([`Background::exclude`]) ...
@@ -103,6 +106,7 @@ impl DetectConfig {
         mask_min_sigma: 2.0,
         mask_margin_sigmas: 2.0,
         mask_margin_px: 3.0,
+        faint_mask_sigma: 8.0,
         sky_exclusion_min_width_px: 12.0,
         sky_exclusion_scale: 1.25,
         sky_exclusion_px: 3.0,
@@ -860,7 +864,11 @@ impl<
             .max(config.mask_min_sigma * self.background.sigma());
         let margin =
             (config.mask_margin_sigmas * silhouette.sigma_px + config.mask_margin_px) as u16;
-        let recut = match self.recut(chip, target, level, margin) {
+        // A faint body is cut on its box mean: the edges' half-contrast crossings stay where
+        // they are, the noise falls by the box's side.
+        let faint = silhouette.contrast < config.faint_mask_sigma * self.background.sigma();
+        let box_px = if faint { FAINT_MASK_BOX_PX } else { 1 };
+        let recut = match self.recut(chip, target, level, margin, box_px) {
             Err(SegmentError::NoTarget) => *target,
             other => other?,
         };
@@ -950,6 +958,7 @@ impl<
         target: &Target,
         level: f32,
         margin: u16,
+        box_px: usize,
     ) -> Result<Target, SegmentError> {
         let mask = &mut self.mask;
         let region = target
@@ -957,9 +966,10 @@ impl<
             .bbox
             .grown(margin, chip.width(), chip.height());
         let sign = target.polarity.sign();
-        self.labeler.label(chip, &self.background, region, |r| {
-            if r * sign >= level { 1 } else { 0 }
-        })?;
+        self.labeler
+            .label_box(chip, &self.background, region, box_px, |r| {
+                if r * sign >= level { 1 } else { 0 }
+            })?;
         let mut keep: heapless::Vec<u16, MAX_COMPONENTS> = heapless::Vec::new();
         for run in self.labeler.runs() {
             let root = self.labeler.root(run.label);
@@ -1021,6 +1031,9 @@ enum SizeVerdict {
         own: Option<(f32, Bar)>,
     },
 }
+
+/// The box side a faint body's mask is cut on, px.
+const FAINT_MASK_BOX_PX: usize = 3;
 
 /// Sizes of the body the bar search tries where no range is known.
 const UNKNOWN_SCALES: usize = 3;
@@ -1176,6 +1189,76 @@ mod tests {
                 && (target.shape.centre.y - 128.0).abs() < 3.0
                 && (90.0..=125.0).contains(&length),
             "{target:?}"
+        );
+    }
+
+    /// A faint body (12 grey levels on noise 3: 4 sigmas), 7 px wide and 60 px long: cut on its
+    /// 3 px box mean, its mask is the body's rectangle to an IoU of at least 0.95, and nearer it
+    /// than cut pixel by pixel.
+    #[test]
+    fn a_faint_body_is_cut_on_its_box_mean() {
+        const SIDE: usize = 128;
+        let (x_range, y_range) = (34..94usize, 61..68usize);
+        let mut noise = crate::testing::noise_sequence(SIDE * SIDE, 9);
+        let mut data = [0u8; SIDE * SIDE];
+        for (i, v) in data.iter_mut().enumerate() {
+            let (x, y) = (i % SIDE, i / SIDE);
+            let dark = if x_range.contains(&x) && y_range.contains(&y) {
+                12.0
+            } else {
+                0.0
+            };
+            *v = (120.0 - dark + 3.0 * noise.next().unwrap_or(0.0)).clamp(0.0, 255.0) as u8;
+        }
+        let chip = ChipView::gray8(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        let expect = Expectation {
+            size: Some(ExpectedBody {
+                diameter_px: 7.0,
+                span_px: 14.0,
+                length_px: 62.0,
+            }),
+            ..Expectation::NONE
+        };
+        let silhouette = Silhouette {
+            axis: Axis {
+                centre: ImagePoint::new(63.5, 64.0),
+                dir: ImagePoint::new(1.0, 0.0),
+            },
+            nose_t: 30.0,
+            nose_ramp_offset_m: 0.0,
+            tail_t: -30.0,
+            diameter_px: 7.0,
+            contrast: 12.0,
+            sigma_px: 0.5,
+            nose_evidence: 0.0,
+            plume_at_tail: false,
+        };
+        let iou_with = |faint_mask_sigma: f32| {
+            let config = DetectConfig {
+                faint_mask_sigma,
+                ..DetectConfig::DEFAULT
+            };
+            let mut segmenter: Segmenter = Segmenter::new();
+            let aim = ImagePoint::new(64.0, 64.0);
+            let target = segmenter.detect(&chip, &config, aim, &expect).unwrap();
+            segmenter
+                .cut_mask(&chip, &config, &target, &silhouette)
+                .unwrap();
+            let mask = segmenter.mask();
+            let (mut both, mut either) = (0usize, 0usize);
+            for y in 0..SIDE {
+                for x in 0..SIDE {
+                    let truth = x_range.contains(&x) && y_range.contains(&y);
+                    both += usize::from(truth && mask.get(x, y));
+                    either += usize::from(truth || mask.get(x, y));
+                }
+            }
+            both as f32 / either.max(1) as f32
+        };
+        let (boxed, plain) = (iou_with(8.0), iou_with(0.0));
+        assert!(
+            boxed >= 0.95 && boxed > plain,
+            "box {boxed}, pixel by pixel {plain}"
         );
     }
 
