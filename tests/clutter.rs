@@ -51,14 +51,14 @@ fn terrain_and_a_plume_do_not_take_the_bodys_place() {
 
 /// The same clip without the range: the terrain reaching the chip's edge is no candidate, and
 /// the bar search runs beside it at the sizes tried. Before, the terrain was the target in every
-/// frame and no frame had a pose (its mask reached the edge); now 15 of 20 do, the body's mask
-/// at a median IoU of 0.5. (The range read from the image in clutter is still poor: Tz 178
-/// m/km median.)
+/// frame and no frame had a pose (its mask reached the edge); now 17 of 20 do, the body's mask
+/// at a median IoU of 0.7, pitch 3.0 deg/km (the range read from the image in clutter is still
+/// poor: Tz 42 m/km median).
 #[test]
 fn terrain_is_no_candidate_without_a_range_either() {
     let (poses, _, iou) = run_clutter_clip("small-clutter-terrain", RangeArg::Ignore);
-    assert!(poses >= 14, "{poses} of 20 frames with a pose");
-    assert!(iou >= 0.45, "median IoU of the blind mask {iou}");
+    assert!(poses >= 15, "{poses} of 20 frames with a pose");
+    assert!(iou >= 0.6, "median IoU of the blind mask {iou}");
 }
 
 /// A faint dark body (3-5 noise deviations a pixel) with a bright plume over its tail far
@@ -70,9 +70,10 @@ fn terrain_is_no_candidate_without_a_range_either() {
 ///
 /// Its attitude is judged over more frames (the next test): with a third of these 20 frames lost
 /// to clutter, their median is a toss between the good frames and the bad (4.7 deg/km before
-/// the plume's glow, the faded tail and the body past a filament were read, 11.3 after, 5.4
-/// since the bar ending at the plume is a candidate, while the same scene over 120 frames went
-/// from 4.7 to 1.2 to 0.66). The blind mask's median IoU went from 0.41 to 0.49.
+/// the plume's glow, the faded tail and the body past a filament were read, 11.3 after, 3.6
+/// since the bar ending at the plume is a candidate and a bar's direction holds in clutter,
+/// while the same scene over 120 frames went from 4.7 to 1.2 to 0.54). The blind mask's median
+/// IoU went from 0.41 to 0.49.
 #[test]
 fn a_faint_body_is_found_beside_its_plume_and_filaments() {
     let (poses, _, iou) = run_clutter_clip("small-clutter-plume", RangeArg::Auto);
@@ -123,12 +124,13 @@ fn median(frames: &[FrameErrors], error: fn(&FrameErrors) -> f64) -> f64 {
 /// A faint body under a plume over 120 frames: the plume marks the tail and its glow on the
 /// tail is fitted, a tail faded against a dark sky is bridged to the plume, and the body is
 /// followed past a filament crossing it and where a cloud behind it lowers its contrast; the bar
-/// that ends at the plume is a candidate, and a fragment gives way to the bar it lies on.
-/// Before, pitch 4.7 and chosen yaw 34 deg/km under clutter (at 41d34c1 1.2 and 13; now 0.66
-/// and 7.4), 0.27 and 4.5 on a clear sky (then 0.10 and 1.5; now 0.10 and 1.1).
+/// that ends at the plume is a candidate, a fragment gives way to the bar it lies on, and in
+/// clutter the bar's direction holds the axis. Before, pitch 4.7 and chosen yaw 34 deg/km under
+/// clutter (at 41d34c1 1.2 and 13; now 0.54 and 6.6), 0.27 and 4.5 on a clear sky (then 0.10
+/// and 1.5; now 0.10 and 1.1).
 #[test]
 fn a_faint_body_under_a_plume_keeps_its_attitude_over_three_seeds() {
-    for (clear, max_pitch, max_yaw) in [(false, 0.9, 9.5), (true, 0.15, 1.5)] {
+    for (clear, max_pitch, max_yaw) in [(false, 0.8, 8.5), (true, 0.15, 1.5)] {
         let (frames, with_truth) = faint_body_frames(clear);
         let (pitch, yaw) = (median(&frames, |f| f.pitch), median(&frames, |f| f.yaw));
         println!(

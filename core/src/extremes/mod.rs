@@ -19,9 +19,9 @@ use crate::chip::ChipView;
 use crate::config::BodyPolarity;
 use crate::model::ProjectileModel;
 use crate::point::ImagePoint;
-use crate::segment::Target;
 use crate::segment::background::Background;
 use crate::segment::select::Shape;
+use crate::segment::{FoundBy, Target};
 use axial_profile::WidthProfile;
 use cross_profile::{CrossSection, DiameterBounds, Stretch};
 use follow::{FollowConfig, Follower};
@@ -233,6 +233,7 @@ pub fn measure(
     let found = Found {
         shape: &target.shape,
         polarity: target.polarity,
+        by_bar: target.found_by == FoundBy::Bar,
     };
     let silhouette = measure_on(chip, background, &found, model, prior, config)?;
     // Where detection saw only part of the body (a faint stretch or a filament across it cut it
@@ -275,6 +276,9 @@ fn longest_px(prior: &Prior, model: &ProjectileModel, sigma_px: f32) -> Option<f
 struct Found<'a> {
     shape: &'a Shape,
     polarity: BodyPolarity,
+    /// The shape is a bar's, its direction integrated over the body's length
+    /// ([`crate::segment::bar`]).
+    by_bar: bool,
 }
 
 /// [`measure`] about the found `shape`'s axis and extent.
@@ -317,6 +321,14 @@ fn measure_on(
         dir: shape.axis,
     };
     let (axis, section) = match (back, front) {
+        // A bar's direction, from block sums along the whole body, is coarse but holds where
+        // the sky beside the body is cluttered (detection then follows its corridor): there two
+        // stretches' offsets are pulled by a cloud band or a filament beside them, and only move
+        // the bar across.
+        (Some(b), Some(f)) if found.by_bar && background.follows_corridor() => (
+            shifted(&axis0, 0.5 * (b.offset_px + f.offset_px)),
+            average(&b, &f),
+        ),
         (Some(b), Some(f)) => (
             corrected_axis(&axis0, &b, &f, 0.5 * half_length),
             average(&b, &f),

@@ -185,6 +185,12 @@ impl Background {
         follow
     }
 
+    /// Whether the sky along the body is the corridor's ([`Background::follow_corridor`]): the
+    /// sky beside it is cluttered beyond what the tiles follow.
+    pub fn follows_corridor(&self) -> bool {
+        self.corridor.is_some()
+    }
+
     /// Re-estimates the tiles that `region` overlaps from their pixels outside it, and keeps
     /// the result when it moves a tile's level by more than `min_change` grey levels (returns
     /// whether it did): a body covering more than half a tile drags the tile's median to the

@@ -379,7 +379,9 @@ mod tests {
         background.estimate(&chip);
         let tiles = background.at(63.5, 64.0);
         assert!(tiles - 80.0 > 3.0, "the tiles' sky {tiles}");
+        assert!(!background.follows_corridor());
         assert!(background.follow_corridor(&chip, &shape, 0.25 * 10.0));
+        assert!(background.follows_corridor());
         assert!((background.at(63.5, 64.0) - 80.0).abs() < 1.0);
         // The labeler's rows read the same sky as single pixels do.
         let mut row = [0.0f32; SIDE];
@@ -396,6 +398,7 @@ mod tests {
         let clean = ChipView::gray8(&clean, SIDE, SIDE, SIDE, 0, 0).unwrap();
         background.estimate(&clean);
         assert!(!background.follow_corridor(&clean, &shape, 0.25 * 10.0));
+        assert!(!background.follows_corridor());
     }
 
     /// The tiles' sky far from the body (where the corridor does not reach).
