@@ -154,6 +154,13 @@ impl WidthProfile {
         self.crossing_inward_of(|i| self.at(i), outer, inward, level)
     }
 
+    /// [`WidthProfile::crossing_inward`] from the bin beyond `bin` going `outward` (+1 or -1):
+    /// where a body whose last bin is `bin` reaches `level` there.
+    pub fn crossing_from_beyond(&self, bin: usize, outward: isize, level: f32) -> Option<f32> {
+        let beyond = usize::try_from(bin as isize + outward).ok()?;
+        self.crossing_inward(beyond, -outward, level)
+    }
+
     /// [`WidthProfile::crossing_inward`] on the signed profile ([`WidthProfile::signed_at`]).
     pub fn signed_crossing_inward(&self, outer: usize, inward: isize, level: f32) -> Option<f32> {
         self.crossing_inward_of(|i| self.signed_at(i), outer, inward, level)

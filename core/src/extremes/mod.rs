@@ -537,6 +537,43 @@ impl Ends {
         floor: f32,
         longest_px: f32,
     ) -> Ends {
+        self.moved_outwards(longest_px, |end, outward, reach| {
+            let last = profile.paying_end(end, outward, reach, 0.5 * diameter_px, diameter_px);
+            if last == end {
+                return None;
+            }
+            let last_bin = profile.bin_of(last);
+            let crossing = profile
+                .crossing_from_beyond(last_bin, outward, 0.5 * diameter_px)
+                .unwrap_or(last);
+            Some((profile.body_end(last_bin, outward, floor, 2), crossing))
+        })
+    }
+
+    /// The ends moved outwards where the body goes on at a lower contrast
+    /// ([`Follower::follow`]), a body no longer than `longest_px`: the outer end of the last
+    /// stretch that was the body's, and the crossing of half its diameter at the contrast there.
+    fn followed(self, profile: &WidthProfile, follower: &Follower, longest_px: f32) -> Ends {
+        let d = follower.middle.diameter_px;
+        self.moved_outwards(longest_px, |end, outward, reach| {
+            let followed = follower.follow(end, outward as f32, reach)?;
+            let outer = profile.bin_of(followed.outer_t);
+            let level = 0.5 * d * followed.contrast_fraction;
+            let crossing = profile
+                .crossing_from_beyond(outer, outward, level)
+                .unwrap_or(followed.outer_t);
+            ((crossing - end) * (outward as f32) > 0.0).then_some((outer, crossing))
+        })
+    }
+
+    /// Each end (`hi50` going +1, `lo50` going -1) moved to the outer bin and half-diameter
+    /// crossing `moved(end, outward, reach)` gives, where it gives one: `reach` is how much
+    /// farther that end can lie for a body no longer than `longest_px`.
+    fn moved_outwards(
+        self,
+        longest_px: f32,
+        mut moved: impl FnMut(f32, isize, f32) -> Option<(usize, f32)>,
+    ) -> Ends {
         let mut ends = self;
         for outward in [1isize, -1] {
             let (end, other) = if outward > 0 {
@@ -545,52 +582,9 @@ impl Ends {
                 (ends.lo50, ends.hi50)
             };
             let reach = longest_px - libm::fabsf(end - other);
-            let last = profile.paying_end(end, outward, reach, 0.5 * diameter_px, diameter_px);
-            if last == end {
-                continue;
-            }
-            let last_bin = profile.bin_of(last);
-            let crossing = usize::try_from(last_bin as isize + outward)
-                .ok()
-                .and_then(|beyond| profile.crossing_inward(beyond, -outward, 0.5 * diameter_px))
-                .unwrap_or(last);
-            let outer = profile.body_end(last_bin, outward, floor, 2);
-            if outward > 0 {
-                (ends.high, ends.hi50) = (outer, crossing);
-            } else {
-                (ends.low, ends.lo50) = (outer, crossing);
-            }
-        }
-        ends
-    }
-}
-
-impl Ends {
-    /// The ends moved outwards where the body goes on at a lower contrast
-    /// ([`Follower::follow`]), a body no longer than `longest_px`: the outer end of the last
-    /// stretch that was the body's, and the crossing of half its diameter at the contrast there.
-    fn followed(self, profile: &WidthProfile, follower: &Follower, longest_px: f32) -> Ends {
-        let d = follower.middle.diameter_px;
-        let mut ends = self;
-        for outward in [1isize, -1] {
-            let (end, other) = if outward > 0 {
-                (ends.hi50, ends.lo50)
-            } else {
-                (ends.lo50, ends.hi50)
-            };
-            let limit = longest_px - libm::fabsf(end - other);
-            let Some(followed) = follower.follow(end, outward as f32, limit) else {
+            let Some((outer, crossing)) = moved(end, outward, reach) else {
                 continue;
             };
-            let outer = profile.bin_of(followed.outer_t);
-            let level = 0.5 * d * followed.contrast_fraction;
-            let crossing = usize::try_from(outer as isize + outward)
-                .ok()
-                .and_then(|beyond| profile.crossing_inward(beyond, -outward, level))
-                .unwrap_or(followed.outer_t);
-            if (crossing - end) * (outward as f32) <= 0.0 {
-                continue;
-            }
             if outward > 0 {
                 (ends.high, ends.hi50) = (outer, crossing);
             } else {

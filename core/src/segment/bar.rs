@@ -300,10 +300,10 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         // middle (the plume's end is the one a faint tail's walk misses), else the weakest.
         if let Some(bar) = plume.and_then(|p| self.measure_from(p, config).ok()) {
             match bars
-                .iter()
-                .position(|b| same_bar(b, &bar, scale.diameter_px))
+                .iter_mut()
+                .find(|b| same_bar(b, &bar, scale.diameter_px))
             {
-                Some(i) if bars[i].half_length_px < bar.half_length_px => bars[i] = bar,
+                Some(same) if same.half_length_px < bar.half_length_px => *same = bar,
                 Some(_) => {}
                 None => {
                     if bars.is_full() {
@@ -656,8 +656,7 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         }
         let samples = samples.get_mut(..count).unwrap_or_default();
         let contrast = samples.iter().sum::<f32>() / count.max(1) as f32;
-        let noise = self.block_sigma * libm::sqrtf(1.5);
-        let scatter = robust_sd(samples, contrast).max(noise);
+        let scatter = robust_sd(samples, contrast).max(self.contrast_noise());
         let mid_point = at(mid);
         let glow = |way: f32| self.glow_beyond(mid_point, dir, way * half_length_px, way, scale);
         Ok(Bar {
@@ -689,7 +688,13 @@ impl<const CELLS: usize> BarSearch<CELLS> {
                 self.section_at(centre + dir * t, normal, scale.flank_px)
             })
             .fold(0.0f32, |m, s| m.max(s.glow()));
-        glow / (self.block_sigma * libm::sqrtf(1.5))
+        glow / self.contrast_noise()
+    }
+
+    /// The noise standard deviation of one block's contrast against its two flanks
+    /// ([`Section::contrast`]), grey levels.
+    fn contrast_noise(&self) -> f32 {
+        self.block_sigma * libm::sqrtf(1.5)
     }
 
     /// `bar` reaching on to the `plume`'s edge where a stretch of its tail faded under the

@@ -419,8 +419,9 @@ impl<
             select::select(candidates, sigma, aim, diag, config.polarity, judge)
         };
         // Without an expected size, the best candidate clear of the chip's edge as the source
-        // paper picks it; with one, the best of those of the body's size. Where the track has a gate, a candidate inside
-        // it gains `track_weight`: the target is re-examined when that changes the pick.
+        // paper picks it; with one, the best of those of the body's size. Where the track has a
+        // gate, a candidate inside it gains `track_weight`: the target is re-examined when that
+        // changes the pick.
         let judge = |m: &Moments| match expected {
             Some(_) => judged(m),
             None => (!at_edge(m)).then_some(0.0),
