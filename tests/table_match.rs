@@ -26,7 +26,7 @@ fn run(table: bool, range: RangeUse) -> Vec<Errors> {
         pipeline
     });
     let mut errors = Vec::new();
-    for row in clip::read_frames(&dir.join("frames.csv")).unwrap() {
+    for row in clip::read_frames(&dir.join("frames.csv")).unwrap().rows {
         let row = row.unwrap();
         let chip = clip::load_chip(&dir.join(&row.chip)).unwrap();
         let result = pipeline.process(&FrameInput {

@@ -52,6 +52,7 @@ pub mod temporal;
 mod testing;
 pub mod track;
 pub mod uncertainty;
+pub mod world;
 
 pub use camera::Camera;
 pub use chip::{ChipError, ChipView};

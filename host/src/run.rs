@@ -7,6 +7,7 @@ use crate::smooth::{Recorded, smoothed_results};
 use crate::stages::{STAGES, mask_file_name};
 use crate::summary::{ClipSummary, Problem, RunSummary, SUMMARY_FORMAT};
 use anyhow::{Context, bail};
+use imade_core::world::{Mount, WorldPose};
 use imade_core::{
     Config, FrameInput, GuidedMethod, Pipeline, RangeSmoothing, RangeUse, Status, results,
 };
@@ -299,8 +300,9 @@ fn pipeline_for(clip: &Clip, config: Config, lut: &str) -> anyhow::Result<Box<Pi
 
 /// One row of a clip's results, before the results file is written.
 enum Row {
-    /// A frame the pipeline processed.
-    Frame(u64, imade_core::FrameResult),
+    /// A frame the pipeline processed, and where the mount pointed the camera (where the clip
+    /// says).
+    Frame(u64, imade_core::FrameResult, Option<Mount>),
     /// A frame or line that could not be processed: its frame number where known, and status.
     Unusable(Option<u64>, &'static str),
 }
@@ -329,7 +331,7 @@ pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<Cli
                         step: pipeline.last_range_step(),
                         solved: pipeline.last_solved().copied(),
                     });
-                    Row::Frame(row.frame, result)
+                    Row::Frame(row.frame, result, row.mount)
                 }
                 Err(error) => {
                     let message = format!(
@@ -352,25 +354,36 @@ pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<Cli
     }
     if job.smooth {
         for (index, result) in smoothed_results(&pipeline, &recorded) {
-            if let Some(Row::Frame(_, kept)) = rows.get_mut(index) {
+            if let Some(Row::Frame(_, kept, _)) = rows.get_mut(index) {
                 *kept = result;
             }
         }
     }
     let mut csv = String::from(results::HEADER);
+    if clip.has_mount {
+        csv.push_str(results::WORLD_HEADER);
+    }
     csv.push('\n');
+    let station = clip.station();
     for row in &rows {
-        let status = match row {
-            Row::Frame(frame, result) => {
+        let (status, world) = match row {
+            Row::Frame(frame, result, mount) => {
                 results::write_row(&mut csv, *frame, result).context("formatting a results row")?;
-                result.status.as_str()
+                let world = mount
+                    .filter(|_| result.status == Status::Ok)
+                    .map(|m| WorldPose::of(&result.pose, &m, &station));
+                (result.status.as_str(), world)
             }
             Row::Unusable(frame, status) => {
                 results::write_status_row(&mut csv, *frame, status)
                     .context("formatting a results row")?;
-                status
+                (*status, None)
             }
         };
+        if clip.has_mount {
+            results::write_world_columns(&mut csv, world.as_ref())
+                .context("formatting a results row")?;
+        }
         summary.count(status);
         csv.push('\n');
     }

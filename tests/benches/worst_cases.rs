@@ -150,6 +150,7 @@ fn write_clip(dir: &Path, fixture: &Fixture, cases: &[Case]) -> anyhow::Result<(
             chip_x0: i64::from(like.origin.0),
             chip_y0: i64::from(like.origin.1),
             range_m: None,
+            mount: None,
             truth: None,
             gt_mask: None,
         };

@@ -1,6 +1,7 @@
 //! `frames.csv`: one row per frame, required columns in any order, optional ground truth.
 
 use anyhow::{Context, bail};
+use imade_core::world::{Mount, MountError};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -38,6 +39,9 @@ pub struct FrameRow {
     pub chip_y0: i64,
     /// Slant range from a range sensor, m, where there is one.
     pub range_m: Option<f64>,
+    /// Where the tracking mount pointed the camera, where the clip says
+    /// (`mount_az_deg`, `mount_el_deg`).
+    pub mount: Option<Mount>,
     /// Ground-truth pose, where the clip has all six gt_ columns filled.
     pub truth: Option<GroundTruth>,
     /// Ground-truth mask PNG path relative to the clip folder.
@@ -66,6 +70,8 @@ pub(super) struct RawRow {
     pub chip_x0: Option<String>,
     pub chip_y0: Option<String>,
     pub range_m: Option<String>,
+    pub mount_az_deg: Option<String>,
+    pub mount_el_deg: Option<String>,
     pub gt_tx_m: Option<String>,
     pub gt_ty_m: Option<String>,
     pub gt_tz_m: Option<String>,
@@ -77,10 +83,24 @@ pub(super) struct RawRow {
 
 const REQUIRED: [&str; 6] = ["frame", "time_s", "chip", "chip_x0", "chip_y0", "range_m"];
 
-/// Reads `frames.csv`. Fails when the file cannot be read or lacks a required column; otherwise
-/// returns one entry per data row, and enforces strictly increasing frame numbers (a row whose
-/// number does not increase is that row's error).
-pub fn read_frames(path: &Path) -> anyhow::Result<Vec<Result<FrameRow, FrameRowError>>> {
+/// The optional tracking-mount columns: both or neither.
+pub const MOUNT_COLUMNS: [&str; 2] = ["mount_az_deg", "mount_el_deg"];
+
+/// A parsed `frames.csv`: one entry per data row (each row parsed or its error), and whether
+/// the file has the tracking mount's columns.
+#[derive(Debug)]
+pub struct Frames {
+    /// One entry per data line, in file order.
+    pub rows: Vec<Result<FrameRow, FrameRowError>>,
+    /// True where the header has both [`MOUNT_COLUMNS`].
+    pub has_mount: bool,
+}
+
+/// Reads `frames.csv`. Fails when the file cannot be read, lacks a required column or has only
+/// one of the [`MOUNT_COLUMNS`]; otherwise returns one entry per data row, and enforces
+/// strictly increasing frame numbers (a row whose number does not increase is that row's
+/// error).
+pub fn read_frames(path: &Path) -> anyhow::Result<Frames> {
     let mut reader = csv::ReaderBuilder::new()
         .flexible(true)
         .trim(csv::Trim::All)
@@ -95,6 +115,16 @@ pub fn read_frames(path: &Path) -> anyhow::Result<Vec<Result<FrameRow, FrameRowE
             bail!("{}: missing required column {column:?}", path.display());
         }
     }
+    let has_mount = match MOUNT_COLUMNS.map(|c| headers.iter().any(|h| h == c)) {
+        [true, true] => true,
+        [false, false] => false,
+        _ => bail!(
+            "{}: the tracking mount's columns come together: {} and {}",
+            path.display(),
+            MOUNT_COLUMNS[0],
+            MOUNT_COLUMNS[1]
+        ),
+    };
     let mut rows = Vec::new();
     let mut last_frame: Option<u64> = None;
     for (index, record) in reader.records().enumerate() {
@@ -134,7 +164,7 @@ pub fn read_frames(path: &Path) -> anyhow::Result<Vec<Result<FrameRow, FrameRowE
         }
         rows.push(checked);
     }
-    Ok(rows)
+    Ok(Frames { rows, has_mount })
 }
 
 fn parse_row(line: u64, raw: RawRow) -> Result<FrameRow, FrameRowError> {
@@ -158,6 +188,25 @@ fn parse_row(line: u64, raw: RawRow) -> Result<FrameRow, FrameRowError> {
     {
         return Err(err(format!("range_m must be positive, got {r}")));
     }
+    let mount = match (
+        optional_f64("mount_az_deg", &raw.mount_az_deg).map_err(err)?,
+        optional_f64("mount_el_deg", &raw.mount_el_deg).map_err(err)?,
+    ) {
+        (Some(az), Some(el)) => Some(Mount::new_checked(az, el).map_err(|e| {
+            err(match e {
+                MountError::NotFinite => "mount_az_deg, mount_el_deg: not finite".into(),
+                MountError::ElevationOutOfRange => {
+                    format!("mount_el_deg must be within [-90, 90], got {el}")
+                }
+            })
+        })?),
+        (None, None) => None,
+        _ => {
+            return Err(err(
+                "mount_az_deg and mount_el_deg: one is given without the other".into(),
+            ));
+        }
+    };
     let gt = [
         &raw.gt_tx_m,
         &raw.gt_ty_m,
@@ -193,6 +242,7 @@ fn parse_row(line: u64, raw: RawRow) -> Result<FrameRow, FrameRowError> {
         chip_x0,
         chip_y0,
         range_m,
+        mount,
         truth,
         gt_mask: raw.gt_mask.filter(|s| !s.is_empty()),
     })
@@ -216,4 +266,57 @@ fn required_i64(name: &str, value: &Option<String>) -> Result<i64, String> {
     let s = value.as_deref().unwrap_or("");
     s.parse::<i64>()
         .map_err(|_| format!("{name}: not an integer: {s:?}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Writes `text` as a `frames.csv` and reads it.
+    fn read(text: &str) -> anyhow::Result<Frames> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("frames.csv");
+        std::fs::write(&path, text).unwrap();
+        read_frames(&path)
+    }
+
+    const HEAD: &str = "frame,time_s,chip,chip_x0,chip_y0,range_m";
+
+    #[test]
+    fn the_mount_columns_are_read_and_checked_per_row() {
+        let frames = read(&format!(
+            "{HEAD},mount_az_deg,mount_el_deg\n\
+             1,0.0,chips/000001.png,0,0,,30.5,20.25\n\
+             2,0.1,chips/000002.png,0,0,,,\n\
+             3,0.2,chips/000003.png,0,0,,30,95\n\
+             4,0.3,chips/000004.png,0,0,,30,\n"
+        ))
+        .unwrap();
+        assert!(frames.has_mount);
+        let mount = frames.rows[0].as_ref().unwrap().mount.unwrap();
+        assert_eq!((mount.az_deg(), mount.el_deg()), (30.5, 20.25));
+        assert_eq!(frames.rows[1].as_ref().unwrap().mount, None);
+        let above = frames.rows[2].as_ref().unwrap_err();
+        assert!(
+            above.message.contains("mount_el_deg must be within"),
+            "{above}"
+        );
+        let half = frames.rows[3].as_ref().unwrap_err();
+        assert!(
+            half.message.contains("one is given without the other"),
+            "{half}"
+        );
+    }
+
+    #[test]
+    fn one_mount_column_alone_is_refused_and_none_is_no_mount() {
+        let error = read(&format!(
+            "{HEAD},mount_az_deg\n1,0,chips/000001.png,0,0,,30\n"
+        ))
+        .unwrap_err();
+        assert!(format!("{error}").contains("come together"), "{error}");
+        let frames = read(&format!("{HEAD}\n1,0,chips/000001.png,0,0,\n")).unwrap();
+        assert!(!frames.has_mount);
+        assert_eq!(frames.rows[0].as_ref().unwrap().mount, None);
+    }
 }

@@ -46,6 +46,16 @@ pub struct ChipSize {
     pub height: u32,
 }
 
+/// The recording station (`clip.json`'s `station`): who recorded the clip and where the camera
+/// stands in the range's East-North-Up frame (`docs/geometry.md`, "World frame").
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StationMeta {
+    /// The station's name (clips of one test from several stations tell them apart by it).
+    pub id: String,
+    /// East, north and up of the camera's optical centre, m.
+    pub enu_m: [f64; 3],
+}
+
 /// The contents of `clip.json`. Unknown keys are ignored.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ClipMeta {
@@ -59,6 +69,9 @@ pub struct ClipMeta {
     pub projectile: String,
     /// The camera's frame rate, Hz (a clip may keep only every n-th frame).
     pub frame_rate_hz: f64,
+    /// The recording station, where the clip names one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub station: Option<StationMeta>,
 }
 
 /// Reads and validates `clip.json`.
@@ -85,6 +98,11 @@ pub fn read_meta(path: &Path) -> anyhow::Result<ClipMeta> {
     }
     if meta.chip.width == 0 || meta.chip.height == 0 {
         bail!("{}: chip size must be positive", path.display());
+    }
+    if let Some(station) = &meta.station
+        && !station.enu_m.iter().all(|v| v.is_finite())
+    {
+        bail!("{}: station.enu_m must be finite", path.display());
     }
     Ok(meta)
 }

@@ -17,15 +17,16 @@ mod writer;
 
 pub use chip_image::{ChipImage, ChipPixels, load_chip, load_mask};
 pub use frame_chip::{FrameChip, FrameChipError};
-pub use frames::{FrameRow, FrameRowError, GroundTruth, read_frames};
+pub use frames::{FrameRow, FrameRowError, Frames, GroundTruth, MOUNT_COLUMNS, read_frames};
 pub use mask_png::{mask_image, save_mask};
-pub use meta::{CameraMeta, ChipSize, ClipMeta, FORMAT_ID, read_meta};
+pub use meta::{CameraMeta, ChipSize, ClipMeta, FORMAT_ID, StationMeta, read_meta};
 pub use paths::{ClipPathError, resolve_clip_path};
 pub use results::{ResultRow, read_results};
 pub use writer::{ClipWriter, write_atomically};
 
 use anyhow::Context;
 use imade_core::ProjectileModel;
+use imade_core::world::Station;
 use std::path::{Path, PathBuf};
 
 /// An opened clip: its folder, metadata and frame rows (each row parsed or its error).
@@ -37,6 +38,9 @@ pub struct Clip {
     pub meta: ClipMeta,
     /// One entry per data line of `frames.csv`, in file order.
     pub frames: Vec<Result<FrameRow, FrameRowError>>,
+    /// True where `frames.csv` has the tracking mount's columns: the results then state each
+    /// ok frame in the world frame too.
+    pub has_mount: bool,
 }
 
 impl Clip {
@@ -49,7 +53,8 @@ impl Clip {
         Ok(Clip {
             dir: dir.to_path_buf(),
             meta,
-            frames,
+            frames: frames.rows,
+            has_mount: frames.has_mount,
         })
     }
 
@@ -67,6 +72,14 @@ impl Clip {
     /// Open a clip's files through this.
     pub fn resolve(&self, relative: &str) -> Result<PathBuf, ClipPathError> {
         resolve_clip_path(&self.dir, relative)
+    }
+
+    /// Where the camera stands in the world frame: `clip.json`'s station, else the origin.
+    pub fn station(&self) -> Station {
+        self.meta
+            .station
+            .as_ref()
+            .map_or(Station::default(), |s| Station { enu_m: s.enu_m })
     }
 
     /// The clip folder joined with `relative`, unchecked: for messages. Files are opened through

@@ -47,6 +47,22 @@ pub struct ResultRow {
     /// One sigma of `roll_deg`, deg, where it is given (an imade column).
     #[serde(default)]
     pub roll_sd_deg: Option<f64>,
+    /// Nose azimuth in the world frame, deg clockwise from north, where the clip gives the
+    /// mount's pointing.
+    #[serde(default)]
+    pub nose_az_deg: Option<f64>,
+    /// Nose elevation in the world frame, deg.
+    #[serde(default)]
+    pub nose_el_deg: Option<f64>,
+    /// Body origin in the world frame: east, m.
+    #[serde(default)]
+    pub e_m: Option<f64>,
+    /// ... north, m.
+    #[serde(default)]
+    pub n_m: Option<f64>,
+    /// ... up, m.
+    #[serde(default)]
+    pub u_m: Option<f64>,
 }
 
 impl ResultRow {

@@ -59,6 +59,8 @@ impl ClipWriter {
             chip_x0: Some(row.chip_x0.to_string()),
             chip_y0: Some(row.chip_y0.to_string()),
             range_m: row.range_m.and_then(num),
+            mount_az_deg: row.mount.and_then(|m| num(m.az_deg())),
+            mount_el_deg: row.mount.and_then(|m| num(m.el_deg())),
             gt_tx_m: truth.and_then(|t| num(t.tx_m)),
             gt_ty_m: truth.and_then(|t| num(t.ty_m)),
             gt_tz_m: truth.and_then(|t| num(t.tz_m)),

@@ -7,6 +7,7 @@ pub mod paper;
 pub mod pose_errors;
 pub mod report;
 pub mod stats;
+pub mod world_errors;
 
 use crate::clip::{Clip, GroundTruth, read_results, write_atomically};
 use anyhow::{Context, bail};
@@ -44,6 +45,9 @@ pub struct Evaluation {
     pub pose: pose_errors::PoseEvaluation,
     /// IoU per segmentation stage with saved masks.
     pub segmentation: Vec<iou::StageIou>,
+    /// World-frame errors, where the clip gives the mount's pointing and the results a world
+    /// pose.
+    pub world: Option<world_errors::WorldEvaluation>,
 }
 
 /// Evaluates `results` (an imade-results/1 file) against the truth of the clip in `clip_dir`,
@@ -71,6 +75,7 @@ pub fn evaluate(clip_dir: &Path, results: &Path, lut: &str) -> anyhow::Result<Ev
         result_rows: rows.len(),
         pose: pose_errors::evaluate(&truth, &rows, roll_period_deg),
         segmentation: iou::evaluate(&clip, results_dir)?,
+        world: world_errors::evaluate(&clip, &rows),
     })
 }
 

@@ -266,6 +266,11 @@ mod tests {
             pitch_alt_deg: None,
             image_range_m: None,
             roll_sd_deg: None,
+            nose_az_deg: None,
+            nose_el_deg: None,
+            e_m: None,
+            n_m: None,
+            u_m: None,
         }
     }
 

@@ -2,6 +2,7 @@
 
 use super::Evaluation;
 use super::paper::Parameter;
+use super::stats::Summary;
 use std::fmt::Write;
 
 /// A number with precision suited to its size.
@@ -28,6 +29,9 @@ pub fn markdown(evaluations: &[&Evaluation]) -> String {
     let _ = write_iou_table(&mut s, evaluations);
     s
 }
+
+/// One world-frame row's statistics of an evaluation.
+type WorldStat = fn(&Evaluation) -> Option<Summary>;
 
 fn write_pose_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Result {
     writeln!(
@@ -98,6 +102,36 @@ fn write_pose_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Re
             " {} | | | |",
             opt(share, |f| format!("{:.1}", 100.0 * f))
         )?;
+    }
+    let world_rows: [(&str, &str, WorldStat); 3] = [
+        (
+            "nose azimuth, world frame (chosen candidate)",
+            "deg/km",
+            |e| e.world.as_ref().and_then(|w| w.nose_az),
+        ),
+        (
+            "nose elevation, world frame (chosen candidate)",
+            "deg/km",
+            |e| e.world.as_ref().and_then(|w| w.nose_el),
+        ),
+        ("body origin, world frame (distance)", "m/km", |e| {
+            e.world.as_ref().and_then(|w| w.origin)
+        }),
+    ];
+    if evaluations.iter().any(|e| e.world.is_some()) {
+        for (label, unit, stats) in world_rows {
+            write!(s, "\n| {label} | {unit} |")?;
+            for e in evaluations {
+                let stats = stats(e);
+                write!(
+                    s,
+                    " {} | {} | {} | - |",
+                    opt(stats.map(|x| x.median), num),
+                    opt(stats.map(|x| x.mean), num),
+                    opt(stats.map(|x| x.p90), num)
+                )?;
+            }
+        }
     }
     write!(s, "\n| yaw choice correct | % |")?;
     for e in evaluations {

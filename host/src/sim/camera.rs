@@ -68,6 +68,11 @@ impl CameraPose {
         }
     }
 
+    /// Where the optical axis points: azimuth and elevation, radians (as [`azimuth_elevation`]).
+    pub fn pointing(&self) -> (f64, f64) {
+        azimuth_elevation(self.r_cw.row(2))
+    }
+
     /// Maps a world point (m) to the camera frame (m).
     pub fn to_camera(&self, p: Vec3) -> Vec3 {
         self.r_cw * (p - self.position)

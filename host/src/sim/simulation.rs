@@ -16,10 +16,14 @@ use super::sky::Environment;
 use super::trajectory::Trajectory;
 use crate::clip::{
     CameraMeta, ChipImage, ChipSize, ClipMeta, ClipWriter, FORMAT_ID, FrameRow, GroundTruth,
-    write_atomically,
+    StationMeta, write_atomically,
 };
 use anyhow::Context;
+use imade_core::world::Mount;
 use std::path::Path;
+
+/// The name of the one station a simulated clip is seen from.
+const STATION_ID: &str = "A";
 
 /// A scenario made ready to render.
 pub struct Simulation {
@@ -212,6 +216,11 @@ impl Simulation {
             },
             projectile: self.model.id.clone(),
             frame_rate_hz: self.resolved.clip.frame_rate_hz,
+            // The simulator's world frame W is the range's East-North-Up frame.
+            station: Some(StationMeta {
+                id: STATION_ID.into(),
+                enu_m: self.scenario.camera.position_m,
+            }),
         };
         let mut writer = ClipWriter::create(out, &meta)?;
         write_atomically(
@@ -256,6 +265,10 @@ impl Simulation {
             chip_x0: plan.chip_origin.0,
             chip_y0: plan.chip_origin.1,
             range_m: plan.range_m,
+            mount: {
+                let (az, el) = plan.camera.pointing();
+                Mount::new_checked(az.to_degrees(), el.to_degrees()).ok()
+            },
             truth: Some(GroundTruth {
                 tx_m: t.x,
                 ty_m: t.y,
