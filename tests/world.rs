@@ -1,6 +1,7 @@
-//! The world frame (`docs/geometry.md`, "World frame") end to end: a clip simulated with the
-//! tracking mount's pointing in `frames.csv` and its station in `clip.json`, run with the range
-//! known, states every ok frame in the station's East-North-Up frame.
+//! The world frame (`docs/geometry.md`, "World frame") end to end: the bundled
+//! `small-known-range` clip, simulated with the tracking mount's pointing in `frames.csv` and its
+//! station in `clip.json`, run with the range known, states every ok frame in the station's
+//! East-North-Up frame, with its angle of attack.
 //!
 //! Two independent truths: the simulator's own world positions (its trajectory flies from the
 //! launcher at the origin due north, without drag or wind, so the body stays in the plane
@@ -12,19 +13,15 @@ use std::path::Path;
 
 /// Bounds from the run of 2026-11-30 (the small-known-range scene, 20 frames: nose azimuth
 /// 0.42, elevation 0.13 deg/km median, the camera frame's pitch 0.026 and chosen yaw 0.44; the
-/// body origin 0.001 m/km from the truth, |east| at most 0.01 m) with room for noise.
+/// body origin 0.001 m/km from the truth, |east| at most 0.01 m; the angle of attack 0.31 deg
+/// off the truth at the median, over 19 frames) with room for noise.
 #[test]
 fn a_mounted_clip_is_stated_in_the_world_frame() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("world");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let scenario = root.join("fixtures/small-known-range/scenario.toml");
-    let scenario = imade_host::sim::Scenario::from_file(&scenario).expect("the scenario");
-    let clip_dir = dir.join("clip");
-    imade_host::sim::Simulation::new(scenario)
-        .and_then(|s| s.write_clip(&clip_dir, 2))
-        .expect("the simulation");
+    let clip_dir = root.join("fixtures/small-known-range");
     let clip = Clip::open(&clip_dir).expect("the clip");
     assert!(clip.has_mount, "the simulator writes the mount's columns");
     let station = clip
@@ -79,13 +76,24 @@ fn a_mounted_clip_is_stated_in_the_world_frame() {
     );
     assert!(az < 1.0 && el < 0.5, "{world:?}");
     assert!(origin < 0.01, "{world:?}");
+    // The angle of attack against the velocity of the body origin's recent positions: every
+    // frame but the first has one (the range is known), within 0.5 deg of the truth's (the
+    // simulator's own nose and velocity) at the median; the frames with the wrong yaw candidate
+    // chosen (a wrong nose) make the tail.
+    let aoa = world.aoa.expect("angle of attack errors");
+    eprintln!(
+        "angle of attack in {} frames: error median {:.3}, mean {:.3}, p90 {:.3} deg",
+        world.frames_with_aoa, aoa.median, aoa.mean, aoa.p90
+    );
+    assert!(world.frames_with_aoa + 1 >= ok.len(), "{world:?}");
+    assert!(aoa.median <= 0.5, "{world:?}");
 }
 
 /// A clip without the mount's columns keeps the results format it had: no world columns.
 #[test]
 fn a_clip_without_a_mount_has_no_world_columns() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let clip = root.join("fixtures/small-known-range");
+    let clip = root.join("fixtures/table1-test");
     assert!(!Clip::open(&clip).unwrap().has_mount);
     let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("world-none");
     let evaluation = imade_tests::run_and_evaluate(&clip, "bundled", RangeArg::Auto, false, &out);

@@ -10,10 +10,13 @@
 //! Y_C in E = Z_C x X_C          R_EC = [X_C Y_C Z_C]      p_E = station + R_EC p_C
 //! ```
 //!
-//! This stage runs after the pose ([`WorldPose::of`]): the mount's co-processor states each ok
-//! frame in E live. The arithmetic is in `f64`: a range frame spans kilometres, and the
-//! rounding is IEEE's on every target, so host and firmware agree bit for bit.
+//! This stage runs after the pose ([`WorldStage::state`], row by row in time order): the mount's
+//! co-processor states each ok frame in E live ([`WorldPose::of`]), and the angle of attack
+//! against the velocity of the body origin's recent positions ([`AngleOfAttack`]). The
+//! arithmetic is in `f64`: a range frame spans kilometres, and the rounding is IEEE's on every
+//! target, so host and firmware agree bit for bit.
 
+use crate::frame::{FrameResult, Status};
 use crate::pose::Pose;
 use nalgebra::{Matrix3, Vector3};
 
@@ -115,6 +118,194 @@ impl WorldPose {
             nose_el_deg: libm::atan2(n.z, horizontal).to_degrees(),
             origin_enu_m: [origin.x, origin.y, origin.z],
         }
+    }
+}
+
+/// The angle of attack of one frame: the nose direction against the velocity, both in E.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AngleOfAttack {
+    /// The total angle between the nose and the velocity, deg, in [0, 180].
+    pub total_deg: f64,
+    /// Its component in the vertical plane of the velocity: the nose above the velocity
+    /// (positive) or below it, deg.
+    pub up_deg: f64,
+    /// Its component across: the nose right of the velocity, seen from behind (positive), or
+    /// left of it, deg.
+    pub right_deg: f64,
+}
+
+impl AngleOfAttack {
+    /// The nose of `pose` against `velocity_enu_m_s` (E, m/s). In the plane normal to the
+    /// velocity, "right" is the horizontal `v x up` and "up" is `right x v`. None for a velocity
+    /// that is not finite or too slow to have a direction, or vertical (no horizontal right).
+    pub fn of(pose: &WorldPose, velocity_enu_m_s: &[f64; 3]) -> Option<AngleOfAttack> {
+        let v = Vector3::from(*velocity_enu_m_s);
+        let speed = v.norm();
+        if !(speed.is_finite() && speed > MIN_SPEED_M_S) {
+            return None;
+        }
+        let forward = v / speed;
+        let right = forward.cross(&Vector3::z());
+        let across = right.norm();
+        if across < 1e-6 {
+            return None;
+        }
+        let right = right / across;
+        let up = right.cross(&forward);
+        let (se, ce) = libm::sincos(pose.nose_el_deg.to_radians());
+        let (sa, ca) = libm::sincos(pose.nose_az_deg.to_radians());
+        let nose = Vector3::new(sa * ce, ca * ce, se);
+        let ahead = nose.dot(&forward);
+        let total = libm::atan2(nose.cross(&forward).norm(), ahead);
+        Some(AngleOfAttack {
+            total_deg: total.to_degrees(),
+            up_deg: libm::atan2(nose.dot(&up), ahead).to_degrees(),
+            right_deg: libm::atan2(nose.dot(&right), ahead).to_degrees(),
+        })
+    }
+}
+
+/// Slowest body origin whose motion has a direction, m/s.
+const MIN_SPEED_M_S: f64 = 1.0;
+
+/// Positions in the velocity's fit.
+pub const FLIGHT_SAMPLES: usize = 5;
+
+/// The world stage's tunables.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct WorldConfig {
+    /// The velocity is fitted over the positions of at most this many seconds (and at most
+    /// [`FLIGHT_SAMPLES`] of them): a quadratic in time, exact for a ballistic arc without
+    /// drag, so the window's span is what the drag's change of the acceleration allows.
+    pub max_span_s: f64,
+    /// A gap between frames with a position longer than this, s, starts the fit afresh.
+    pub max_gap_s: f64,
+}
+
+impl WorldConfig {
+    /// The defaults.
+    pub const DEFAULT: WorldConfig = WorldConfig {
+        max_span_s: 2.5,
+        max_gap_s: 1.0,
+    };
+}
+
+impl Default for WorldConfig {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// One frame in the world frame: its pose and, where the velocity is known, its angle of attack.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct WorldState {
+    /// The pose in E.
+    pub pose: WorldPose,
+    /// The angle of attack against the velocity fitted to the body origin's recent positions
+    /// (this frame's and those before it); None until two frames have a position, or where any
+    /// of them had its range from the image rather than a sensor (a position along the line of
+    /// sight from the image scatters metres: tens of m/s between frames).
+    pub aoa: Option<AngleOfAttack>,
+}
+
+/// A recent position of the body origin.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Fix {
+    time_s: f64,
+    enu_m: [f64; 3],
+    range_used: bool,
+}
+
+/// The world stage: the station, and the body origin's recent positions for the velocity.
+#[derive(Debug, Clone)]
+pub struct WorldStage {
+    station: Station,
+    config: WorldConfig,
+    flight: heapless::Deque<Fix, FLIGHT_SAMPLES>,
+}
+
+impl WorldStage {
+    /// The stage of a clip recorded at `station`.
+    pub const fn new(station: Station, config: WorldConfig) -> Self {
+        WorldStage {
+            station,
+            config,
+            flight: heapless::Deque::new(),
+        }
+    }
+
+    /// The world state of the frame at `time_s` (s, after the frames given before) whose result
+    /// is `result`, the mount pointed as `mount`: None unless the frame has a pose and a
+    /// pointing.
+    pub fn state(
+        &mut self,
+        time_s: f64,
+        result: &FrameResult,
+        mount: Option<&Mount>,
+    ) -> Option<WorldState> {
+        let mount = mount.filter(|_| result.status == Status::Ok)?;
+        let pose = WorldPose::of(&result.pose, mount, &self.station);
+        let stale = self.flight.back().is_some_and(|last| {
+            !(time_s > last.time_s && time_s - last.time_s <= self.config.max_gap_s)
+        });
+        if stale {
+            self.flight.clear();
+        }
+        while self
+            .flight
+            .front()
+            .is_some_and(|first| time_s - first.time_s > self.config.max_span_s)
+            || self.flight.is_full()
+        {
+            self.flight.pop_front();
+        }
+        // Room was made above.
+        let _ = self.flight.push_back(Fix {
+            time_s,
+            enu_m: pose.origin_enu_m,
+            range_used: result.range_used,
+        });
+        let aoa = if self.flight.iter().all(|f| f.range_used) {
+            self.velocity().and_then(|v| AngleOfAttack::of(&pose, &v))
+        } else {
+            None
+        };
+        Some(WorldState { pose, aoa })
+    }
+
+    /// The velocity at the newest position, m/s in E: the slope of a least-squares quadratic in
+    /// time through the recent positions (a line through two); None with fewer.
+    fn velocity(&self) -> Option<[f64; 3]> {
+        let newest = self.flight.back()?.time_s;
+        let n = self.flight.len();
+        if n < 2 {
+            return None;
+        }
+        let terms = if n == 2 { 2 } else { 3 };
+        // Normal equations of p(t) = a + b tau + c tau^2, tau = t - newest, per axis.
+        let mut normal = Matrix3::<f64>::zeros();
+        let mut rhs = Matrix3::<f64>::zeros();
+        for fix in &self.flight {
+            let tau = fix.time_s - newest;
+            let basis = Vector3::new(1.0, tau, tau * tau);
+            for i in 0..terms {
+                for j in 0..terms {
+                    normal[(i, j)] += basis[i] * basis[j];
+                }
+                for (axis, value) in fix.enu_m.iter().enumerate() {
+                    rhs[(i, axis)] += basis[i] * value;
+                }
+            }
+        }
+        if terms == 2 {
+            normal[(2, 2)] = 1.0;
+        }
+        let solution = normal.try_inverse()? * rhs;
+        let velocity = [solution[(1, 0)], solution[(1, 1)], solution[(1, 2)]];
+        velocity.iter().all(|v| v.is_finite()).then_some(velocity)
     }
 }
 
@@ -231,5 +422,99 @@ mod tests {
             let gap = ((world.nose_az_deg - expected + 540.0) % 360.0) - 180.0;
             assert!(gap.abs() < 1e-6, "{az}: {world:?}");
         }
+    }
+
+    /// By hand: a body flying due north, level; a nose 2 deg up is 2 deg of angle of attack in
+    /// the vertical plane, one 3 deg east of north 3 deg to the right.
+    #[test]
+    fn the_angle_of_attack_by_hand() {
+        let velocity = [0.0, 300.0, 0.0];
+        let nose = |az: f64, el: f64| WorldPose {
+            nose_az_deg: az,
+            nose_el_deg: el,
+            origin_enu_m: [0.0; 3],
+        };
+        let up = AngleOfAttack::of(&nose(0.0, 2.0), &velocity).unwrap();
+        assert!(
+            (up.total_deg - 2.0).abs() < 1e-9 && (up.up_deg - 2.0).abs() < 1e-9,
+            "{up:?}"
+        );
+        assert!(up.right_deg.abs() < 1e-9, "{up:?}");
+        let right = AngleOfAttack::of(&nose(3.0, 0.0), &velocity).unwrap();
+        assert!(
+            (right.right_deg - 3.0).abs() < 1e-9 && right.up_deg.abs() < 1e-9,
+            "{right:?}"
+        );
+        let backwards = AngleOfAttack::of(&nose(180.0, 0.0), &velocity).unwrap();
+        assert!((backwards.total_deg - 180.0).abs() < 1e-9, "{backwards:?}");
+        assert_eq!(AngleOfAttack::of(&nose(0.0, 0.0), &[0.0, 0.0, 0.5]), None);
+        assert_eq!(AngleOfAttack::of(&nose(0.0, 0.0), &[0.0, 0.0, 300.0]), None);
+        assert_eq!(
+            AngleOfAttack::of(&nose(0.0, 0.0), &[f64::NAN, 1.0, 0.0]),
+            None
+        );
+    }
+
+    /// A camera at the origin looking due north, level: its C is (east, -up, north), so a
+    /// pose's pitch is the nose's elevation and its yaw the nose's azimuth.
+    fn seen_from_the_south(enu: [f64; 3], nose_az_deg: f64, nose_el_deg: f64) -> FrameResult {
+        let mut result = FrameResult::failed(Status::Ok);
+        result.pose = Pose {
+            tx_m: enu[0] as f32,
+            ty_m: -enu[2] as f32,
+            tz_m: enu[1] as f32,
+            pitch_deg: nose_el_deg as f32,
+            yaw_deg: nose_az_deg as f32,
+        };
+        result.range_used = true;
+        result
+    }
+
+    /// A ballistic arc (no drag) seen every 0.5 s with the nose along its velocity: from the
+    /// third frame on the quadratic fit's velocity is exact and the angle of attack zero; the
+    /// second frame's straight line through two positions misses the arc's bend; a frame whose
+    /// range came from the image gives none, nor does the frame after a gap.
+    #[test]
+    fn a_ballistic_arc_flown_nose_first_has_no_angle_of_attack() {
+        let mount = Mount::new_checked(0.0, 0.0).unwrap();
+        let mut stage = WorldStage::new(Station::default(), WorldConfig::DEFAULT);
+        let (p0, v0, g) = ([-200.0, 1500.0, 300.0], [150.0, 60.0, 120.0], 9.81);
+        let at = |t: f64| {
+            let enu = [
+                p0[0] + v0[0] * t,
+                p0[1] + v0[1] * t,
+                p0[2] + v0[2] * t - 0.5 * g * t * t,
+            ];
+            let v = [v0[0], v0[1], v0[2] - g * t];
+            let horizontal = libm::sqrt(v[0] * v[0] + v[1] * v[1]);
+            let az = libm::atan2(v[0], v[1]).to_degrees();
+            let el = libm::atan2(v[2], horizontal).to_degrees();
+            seen_from_the_south(enu, az, el)
+        };
+        for k in 0..8 {
+            let t = 0.5 * f64::from(k);
+            let state = stage.state(t, &at(t), Some(&mount)).unwrap();
+            match k {
+                0 => assert_eq!(state.aoa, None),
+                1 => {
+                    // The chord's direction is half a frame's turn off the velocity's.
+                    let aoa = state.aoa.unwrap().total_deg;
+                    assert!(aoa > 0.3 && aoa < 3.0, "frame {k}: {aoa}");
+                }
+                _ => {
+                    let aoa = state.aoa.unwrap().total_deg;
+                    assert!(aoa < 2e-3, "frame {k}: {aoa}");
+                }
+            }
+        }
+        let mut unranged = at(4.0);
+        unranged.range_used = false;
+        assert_eq!(stage.state(4.0, &unranged, Some(&mount)).unwrap().aoa, None);
+        assert_eq!(stage.state(5.5, &at(5.5), Some(&mount)).unwrap().aoa, None);
+        assert_eq!(
+            stage.state(6.0, &FrameResult::failed(Status::NoTarget), Some(&mount)),
+            None
+        );
+        assert_eq!(stage.state(6.5, &at(6.5), None), None);
     }
 }

@@ -29,6 +29,7 @@ use host_io::{Args, IoError};
 use icount::InstructionCounter;
 use imade_core::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS, mask_words};
 use imade_core::lut::table::Table;
+use imade_core::world::{WorldConfig, WorldStage};
 use imade_core::{
     Config, FrameInput, FrameResult, MatchConfig, ModelError, Pipeline, ProjectileModel,
 };
@@ -165,7 +166,15 @@ fn run() -> Result<(), Error> {
         core::mem::size_of_val(chip),
         stack::peak_bytes()
     );
-    let mut outputs = Outputs::create(results_path, outcomes_path, measurements_path)?;
+    let mut outputs = Outputs::create(
+        results_path,
+        outcomes_path,
+        measurements_path,
+        header.world.is_some(),
+    )?;
+    let mut world = header
+        .world
+        .map(|station| WorldStage::new(station, WorldConfig::DEFAULT));
     for _ in 0..header.records {
         let record = imade_pack::read_record(&mut input, chip)?;
         let mut instructions = None;
@@ -174,7 +183,7 @@ fn run() -> Result<(), Error> {
             instructions = count;
             result
         });
-        outputs.frame(&outcome, instructions)?;
+        outputs.frame(&outcome, instructions, world.as_mut())?;
     }
     defmt::info!(
         "done: {=u32} frames, stack peak {=usize} B",

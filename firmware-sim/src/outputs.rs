@@ -12,6 +12,7 @@ use crate::host_io::{self, IoError, OutputFile};
 use crate::stack;
 use core::fmt::Write;
 use imade_core::results;
+use imade_core::world::WorldStage;
 use imade_pack::Outcome;
 
 /// Longest line written, bytes (an outcome's `Debug` form is the longest).
@@ -40,36 +41,47 @@ pub struct Outputs {
 }
 
 impl Outputs {
-    /// Creates the files and writes the CSV headers.
-    pub fn create(results: &str, outcomes: &str, measurements: &str) -> Result<Self, OutputError> {
+    /// Creates the files and writes the CSV headers; the results' with the world frame's
+    /// columns where `world` (the clip has the mount's columns).
+    pub fn create(
+        results: &str,
+        outcomes: &str,
+        measurements: &str,
+        world: bool,
+    ) -> Result<Self, OutputError> {
         let mut outputs = Outputs {
             results: host_io::create(results)?,
             outcomes: host_io::create(outcomes)?,
             measurements: host_io::create(measurements)?,
         };
-        outputs.results.write_line(results::HEADER)?;
+        let mut header = heapless::String::<MAX_LINE>::new();
+        let columns = if world { results::WORLD_HEADER } else { "" };
+        write!(header, "{}{columns}", results::HEADER).map_err(|_| OutputError::LineTooLong)?;
+        outputs.results.write_line(&header)?;
         outputs
             .measurements
             .write_line("frame,status,instructions,stack_peak_bytes")?;
         Ok(outputs)
     }
 
-    /// Reports one frame: `instructions` is what the pipeline took, where it ran and was counted.
+    /// Reports one frame: `instructions` is what the pipeline took, where it ran and was counted;
+    /// `world` is the world frame's stage where the clip has the mount's columns.
     pub fn frame(
         &mut self,
         outcome: &Outcome,
         instructions: Option<u32>,
+        world: Option<&mut WorldStage>,
     ) -> Result<(), OutputError> {
         let mut line = heapless::String::<MAX_LINE>::new();
         outcome
-            .write_row(&mut line)
+            .write_row(&mut line, world)
             .map_err(|_| OutputError::LineTooLong)?;
         self.results.write_line(&line)?;
         line.clear();
         write!(line, "{outcome:?}").map_err(|_| OutputError::LineTooLong)?;
         self.outcomes.write_line(&line)?;
         match outcome {
-            Outcome::Processed { frame, result } => {
+            Outcome::Processed { frame, result, .. } => {
                 let stack_peak = stack::peak_bytes();
                 defmt::info!(
                     "frame {=u64}: {=str} {} pitch_alt {=f32} yaw_alt {=f32} resolved {=bool} range_used {=bool}; {} instructions, stack peak {=usize} B",

@@ -1,6 +1,7 @@
-//! `imade pack`: a clip packed for the firmware (imade-pack/1, `firmware-sim/pack`), read exactly
+//! `imade pack`: a clip packed for the firmware (imade-pack/2, `firmware-sim/pack`), read exactly
 //! as `imade run` reads it: the same camera, range use, model and table, and per frame row the
-//! same time, range, chip origin and chip samples, or the same `bad_chip` / `bad_row` status.
+//! same time, range, mount pointing, chip origin and chip samples, or the same `bad_chip` /
+//! `bad_row` status; and the station where the clip has the mount's columns.
 
 use crate::clip::{ChipImage, ChipPixels, Clip, FrameChipError, FrameRow, write_atomically};
 use crate::run::RangeArg;
@@ -60,8 +61,11 @@ pub fn pack_bytes(dir: &Path, range: RangeArg, lut: &str) -> anyhow::Result<(Vec
         None => TableUse::None,
     };
     let range_use = range.config().range_use;
-    let header = Header::new(camera, range_use, table, &clip.meta.projectile, records)
+    let mut header = Header::new(camera, range_use, table, &clip.meta.projectile, records)
         .with_context(|| format!("projectile id {:?}", clip.meta.projectile))?;
+    if clip.has_mount {
+        header = header.with_world(clip.station());
+    }
     let mut bytes = header.encode().to_vec();
     for entry in &clip.frames {
         let record = match entry {
@@ -111,6 +115,7 @@ fn chip_frame(clip: &Clip, row: &FrameRow) -> Result<(ChipFrame, ChipImage), Fra
             ChipPixels::U8(_) => SampleDepth::U8,
             ChipPixels::U16(_) => SampleDepth::U16,
         },
+        mount: row.mount,
     };
     Ok((frame, chip.image))
 }

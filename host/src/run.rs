@@ -7,7 +7,7 @@ use crate::smooth::{Recorded, smoothed_results};
 use crate::stages::{STAGES, mask_file_name};
 use crate::summary::{ClipSummary, Problem, RunSummary, SUMMARY_FORMAT};
 use anyhow::{Context, bail};
-use imade_core::world::{Mount, WorldPose};
+use imade_core::world::{Mount, WorldConfig, WorldStage};
 use imade_core::{
     Config, FrameInput, GuidedMethod, Pipeline, RangeSmoothing, RangeUse, Status, results,
 };
@@ -300,9 +300,17 @@ fn pipeline_for(clip: &Clip, config: Config, lut: &str) -> anyhow::Result<Box<Pi
 
 /// One row of a clip's results, before the results file is written.
 enum Row {
-    /// A frame the pipeline processed, and where the mount pointed the camera (where the clip
-    /// says).
-    Frame(u64, imade_core::FrameResult, Option<Mount>),
+    /// A frame the pipeline processed.
+    Frame {
+        /// Its number.
+        frame: u64,
+        /// Its capture time, s.
+        time_s: f64,
+        /// The pipeline's result.
+        result: imade_core::FrameResult,
+        /// Where the mount pointed the camera, where the clip says.
+        mount: Option<Mount>,
+    },
     /// A frame or line that could not be processed: its frame number where known, and status.
     Unusable(Option<u64>, &'static str),
 }
@@ -331,7 +339,12 @@ pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<Cli
                         step: pipeline.last_range_step(),
                         solved: pipeline.last_solved().copied(),
                     });
-                    Row::Frame(row.frame, result, row.mount)
+                    Row::Frame {
+                        frame: row.frame,
+                        time_s: row.time_s,
+                        result,
+                        mount: row.mount,
+                    }
                 }
                 Err(error) => {
                     let message = format!(
@@ -354,7 +367,7 @@ pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<Cli
     }
     if job.smooth {
         for (index, result) in smoothed_results(&pipeline, &recorded) {
-            if let Some(Row::Frame(_, kept, _)) = rows.get_mut(index) {
+            if let Some(Row::Frame { result: kept, .. }) = rows.get_mut(index) {
                 *kept = result;
             }
         }
@@ -364,14 +377,17 @@ pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<Cli
         csv.push_str(results::WORLD_HEADER);
     }
     csv.push('\n');
-    let station = clip.station();
+    let mut world_stage = WorldStage::new(clip.station(), WorldConfig::DEFAULT);
     for row in &rows {
         let (status, world) = match row {
-            Row::Frame(frame, result, mount) => {
+            Row::Frame {
+                frame,
+                time_s,
+                result,
+                mount,
+            } => {
                 results::write_row(&mut csv, *frame, result).context("formatting a results row")?;
-                let world = mount
-                    .filter(|_| result.status == Status::Ok)
-                    .map(|m| WorldPose::of(&result.pose, &m, &station));
+                let world = world_stage.state(*time_s, result, mount.as_ref());
                 (result.status.as_str(), world)
             }
             Row::Unusable(frame, status) => {

@@ -153,6 +153,7 @@ fn write_clip(dir: &Path, fixture: &Fixture, cases: &[Case]) -> anyhow::Result<(
             mount: None,
             truth: None,
             gt_mask: None,
+            truth_aoa: None,
         };
         let chip = ChipImage {
             width: case.width as u32,

@@ -1,25 +1,28 @@
-//! The imade-pack/1 byte layout: a fixed header, then one fixed record per frame row of the
-//! clip, each chip record followed by its samples. All numbers little-endian.
+//! The imade-pack/2 byte layout: a fixed header, then one fixed record per frame row of the
+//! clip, each chip record followed by its samples. All numbers little-endian. (Version 2 added
+//! the tracking mount's pointing and the station, for the world frame.)
 //!
 //! Header ([`HEADER_LEN`] bytes):
 //!
 //! | bytes | field |
 //! | --- | --- |
-//! | 0..8 | magic `IMADEPK1` |
+//! | 0..8 | magic `IMADEPK2` |
 //! | 8..24 | camera `fx`, `fy`, `cx`, `cy`, f32, px |
 //! | 24 | range use: 0 auto, 1 ignore |
 //! | 25 | silhouette table: 0 none, 1 the bundled table of the projectile |
 //! | 26 | length of the projectile id, at most [`MAX_PROJECTILE_ID`] |
-//! | 27 | zero |
+//! | 27 | flags: bit 0 the clip has the mount's columns (the results state the world frame) |
 //! | 28..60 | projectile id, UTF-8, zero-padded |
 //! | 60..64 | number of records, u32 |
+//! | 64..88 | station east, north, up, f64, m (zero without the mount's columns) |
+//! | 88..96 | zero |
 //!
 //! Record ([`RECORD_LEN`] bytes):
 //!
 //! | bytes | field |
 //! | --- | --- |
 //! | 0 | kind: 0 chip, 1 bad chip, 2 bad row |
-//! | 1 | flags: bit 0 frame number present, bit 1 range present |
+//! | 1 | flags: bit 0 frame number present, bit 1 range present, bit 2 mount pointing present |
 //! | 2 | bytes per sample: 1 or 2 for a chip, 0 otherwise |
 //! | 3 | zero |
 //! | 4..12 | frame number, u64 |
@@ -28,24 +31,29 @@
 //! | 24..32 | chip origin `x0`, `y0`, i32, full-frame px |
 //! | 32..36 | chip width, height, u16, px |
 //! | 36..40 | zero |
+//! | 40..56 | mount azimuth, elevation, f64, deg |
 //!
 //! A chip record is followed by width x height samples, row-major, without padding.
 
+use imade_core::world::{Mount, Station};
 use imade_core::{Camera, RangeUse};
 
 #[cfg(target_endian = "big")]
 compile_error!("imade-pack reads 16-bit samples in place and needs a little-endian target");
 
 /// Bytes of the file header.
-pub const HEADER_LEN: usize = 64;
+pub const HEADER_LEN: usize = 96;
 /// Bytes of a record (without its samples).
-pub const RECORD_LEN: usize = 40;
+pub const RECORD_LEN: usize = 56;
 /// Longest projectile id, bytes.
 pub const MAX_PROJECTILE_ID: usize = 32;
 
-const MAGIC: [u8; 8] = *b"IMADEPK1";
+const MAGIC: [u8; 8] = *b"IMADEPK2";
 const FLAG_FRAME: u8 = 1;
 const FLAG_RANGE: u8 = 2;
+const FLAG_MOUNT: u8 = 4;
+/// Header flag: the clip has the mount's columns.
+const FLAG_WORLD: u8 = 1;
 
 /// Why bytes are not imade-pack/1.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -63,17 +71,21 @@ pub enum PackError {
     BadKind(u8),
     /// A chip record with a sample size other than 1 or 2 bytes, or an empty chip.
     BadChip,
+    /// A mount pointing that is not finite or whose elevation is beyond the vertical, or a
+    /// station that is not finite.
+    BadWorld,
 }
 
 impl core::fmt::Display for PackError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
-            PackError::BadMagic => write!(f, "not an imade-pack/1 file"),
+            PackError::BadMagic => write!(f, "not an imade-pack/2 file"),
             PackError::BadRangeUse(code) => write!(f, "unknown range-use code {code}"),
             PackError::BadTable(code) => write!(f, "unknown table code {code}"),
             PackError::BadProjectile => write!(f, "bad projectile id"),
             PackError::BadKind(kind) => write!(f, "unknown record kind {kind}"),
             PackError::BadChip => write!(f, "chip record with a bad sample size or no samples"),
+            PackError::BadWorld => write!(f, "a mount pointing or station that is no place"),
         }
     }
 }
@@ -103,6 +115,9 @@ pub struct Header {
     pub projectile: heapless::String<MAX_PROJECTILE_ID>,
     /// Number of records that follow.
     pub records: u32,
+    /// Where the clip has the mount's columns: the station the results state the world frame
+    /// from.
+    pub world: Option<Station>,
 }
 
 impl Header {
@@ -121,7 +136,16 @@ impl Header {
             projectile: heapless::String::try_from(projectile)
                 .map_err(|_| PackError::BadProjectile)?,
             records,
+            world: None,
         })
+    }
+
+    /// The header of a clip with the mount's columns, recorded at `station`.
+    pub fn with_world(self, station: Station) -> Self {
+        Header {
+            world: Some(station),
+            ..self
+        }
     }
 
     /// The header's bytes.
@@ -146,6 +170,13 @@ impl Header {
         b[26] = id.len() as u8;
         b[28..28 + id.len()].copy_from_slice(id);
         b[60..64].copy_from_slice(&self.records.to_le_bytes());
+        if let Some(station) = &self.world {
+            b[27] |= FLAG_WORLD;
+            for (i, v) in station.enu_m.iter().enumerate() {
+                let at = 64 + 8 * i;
+                b[at..at + 8].copy_from_slice(&v.to_le_bytes());
+            }
+        }
         b
     }
 
@@ -181,6 +212,15 @@ impl Header {
             table,
             projectile,
             records: u32::from_le_bytes(array_at(b, 60)),
+            world: if b[27] & FLAG_WORLD != 0 {
+                let enu_m = [64, 72, 80].map(|at| f64::from_le_bytes(array_at(b, at)));
+                if !enu_m.iter().all(|v| v.is_finite()) {
+                    return Err(PackError::BadWorld);
+                }
+                Some(Station { enu_m })
+            } else {
+                None
+            },
         })
     }
 }
@@ -225,6 +265,8 @@ pub struct ChipFrame {
     pub height: u16,
     /// Sample size.
     pub depth: SampleDepth,
+    /// Where the mount pointed the camera, where the row says.
+    pub mount: Option<Mount>,
 }
 
 impl ChipFrame {
@@ -277,6 +319,11 @@ impl Record {
                 b[28..32].copy_from_slice(&c.y0.to_le_bytes());
                 b[32..34].copy_from_slice(&c.width.to_le_bytes());
                 b[34..36].copy_from_slice(&c.height.to_le_bytes());
+                if let Some(m) = &c.mount {
+                    b[1] |= FLAG_MOUNT;
+                    b[40..48].copy_from_slice(&m.az_deg().to_le_bytes());
+                    b[48..56].copy_from_slice(&m.el_deg().to_le_bytes());
+                }
                 Some(c.frame)
             }
             Record::BadChip { frame } => {
@@ -314,6 +361,12 @@ impl Record {
                     width: u16::from_le_bytes(array_at(b, 32)),
                     height: u16::from_le_bytes(array_at(b, 34)),
                     depth,
+                    mount: if b[1] & FLAG_MOUNT != 0 {
+                        let (az, el) = (f64_at(b, 40), f64_at(b, 48));
+                        Some(Mount::new_checked(az, el).map_err(|_| PackError::BadWorld)?)
+                    } else {
+                        None
+                    },
                 };
                 if chip.samples() == 0 {
                     return Err(PackError::BadChip);
@@ -345,4 +398,8 @@ fn array_at<const N: usize>(b: &[u8], at: usize) -> [u8; N] {
 
 fn f32_at(b: &[u8], at: usize) -> f32 {
     f32::from_le_bytes(array_at(b, at))
+}
+
+fn f64_at(b: &[u8], at: usize) -> f64 {
+    f64::from_le_bytes(array_at(b, at))
 }

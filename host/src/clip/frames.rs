@@ -46,6 +46,22 @@ pub struct FrameRow {
     pub truth: Option<GroundTruth>,
     /// Ground-truth mask PNG path relative to the clip folder.
     pub gt_mask: Option<String>,
+    /// Ground-truth angle of attack (simulated clips with the mount's pointing), where all three
+    /// `gt_aoa_` columns are filled.
+    pub truth_aoa: Option<TrueAngleOfAttack>,
+}
+
+/// The true angle of attack of a frame (imade's own ground-truth columns `gt_aoa_deg`,
+/// `gt_aoa_up_deg`, `gt_aoa_right_deg`): the nose against the velocity in the world frame, deg,
+/// as `imade_core::world::AngleOfAttack` splits it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TrueAngleOfAttack {
+    /// Total angle, deg.
+    pub total_deg: f64,
+    /// The nose above the velocity, deg.
+    pub up_deg: f64,
+    /// The nose right of the velocity, deg.
+    pub right_deg: f64,
 }
 
 /// A row of `frames.csv` that could not be used.
@@ -79,6 +95,9 @@ pub(super) struct RawRow {
     pub gt_yaw_deg: Option<String>,
     pub gt_roll_deg: Option<String>,
     pub gt_mask: Option<String>,
+    pub gt_aoa_deg: Option<String>,
+    pub gt_aoa_up_deg: Option<String>,
+    pub gt_aoa_right_deg: Option<String>,
 }
 
 const REQUIRED: [&str; 6] = ["frame", "time_s", "chip", "chip_x0", "chip_y0", "range_m"];
@@ -234,6 +253,16 @@ fn parse_row(line: u64, raw: RawRow) -> Result<FrameRow, FrameRowError> {
         }),
         _ => None,
     };
+    let truth_aoa = match [&raw.gt_aoa_deg, &raw.gt_aoa_up_deg, &raw.gt_aoa_right_deg]
+        .map(|v| optional_f64("gt_aoa_", v))
+    {
+        [Ok(Some(total_deg)), Ok(Some(up_deg)), Ok(Some(right_deg))] => Some(TrueAngleOfAttack {
+            total_deg,
+            up_deg,
+            right_deg,
+        }),
+        _ => None,
+    };
     Ok(FrameRow {
         line,
         frame,
@@ -245,6 +274,7 @@ fn parse_row(line: u64, raw: RawRow) -> Result<FrameRow, FrameRowError> {
         mount,
         truth,
         gt_mask: raw.gt_mask.filter(|s| !s.is_empty()),
+        truth_aoa,
     })
 }
 

@@ -17,7 +17,9 @@ mod writer;
 
 pub use chip_image::{ChipImage, ChipPixels, load_chip, load_mask};
 pub use frame_chip::{FrameChip, FrameChipError};
-pub use frames::{FrameRow, FrameRowError, Frames, GroundTruth, MOUNT_COLUMNS, read_frames};
+pub use frames::{
+    FrameRow, FrameRowError, Frames, GroundTruth, MOUNT_COLUMNS, TrueAngleOfAttack, read_frames,
+};
 pub use mask_png::{mask_image, save_mask};
 pub use meta::{CameraMeta, ChipSize, ClipMeta, FORMAT_ID, StationMeta, read_meta};
 pub use paths::{ClipPathError, resolve_clip_path};

@@ -63,6 +63,15 @@ pub struct ResultRow {
     /// ... up, m.
     #[serde(default)]
     pub u_m: Option<f64>,
+    /// Total angle of attack in the world frame, deg, where the velocity is known.
+    #[serde(default)]
+    pub aoa_deg: Option<f64>,
+    /// Its component up (the nose above the velocity), deg (an imade column).
+    #[serde(default)]
+    pub aoa_up_deg: Option<f64>,
+    /// Its component right (the nose right of the velocity), deg (an imade column).
+    #[serde(default)]
+    pub aoa_right_deg: Option<f64>,
 }
 
 impl ResultRow {

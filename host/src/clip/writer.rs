@@ -68,6 +68,9 @@ impl ClipWriter {
             gt_yaw_deg: truth.and_then(|t| num(t.yaw_deg)),
             gt_roll_deg: truth.and_then(|t| num(t.roll_deg)),
             gt_mask: mask_rel,
+            gt_aoa_deg: row.truth_aoa.and_then(|a| num(a.total_deg)),
+            gt_aoa_up_deg: row.truth_aoa.and_then(|a| num(a.up_deg)),
+            gt_aoa_right_deg: row.truth_aoa.and_then(|a| num(a.right_deg)),
         });
         Ok(())
     }

@@ -271,6 +271,9 @@ mod tests {
             e_m: None,
             n_m: None,
             u_m: None,
+            aoa_deg: None,
+            aoa_up_deg: None,
+            aoa_right_deg: None,
         }
     }
 

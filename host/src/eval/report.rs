@@ -103,7 +103,7 @@ fn write_pose_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Re
             opt(share, |f| format!("{:.1}", 100.0 * f))
         )?;
     }
-    let world_rows: [(&str, &str, WorldStat); 3] = [
+    let world_rows: [(&str, &str, WorldStat); 6] = [
         (
             "nose azimuth, world frame (chosen candidate)",
             "deg/km",
@@ -116,6 +116,15 @@ fn write_pose_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Re
         ),
         ("body origin, world frame (distance)", "m/km", |e| {
             e.world.as_ref().and_then(|w| w.origin)
+        }),
+        ("angle of attack, total (not normalized)", "deg", |e| {
+            e.world.as_ref().and_then(|w| w.aoa)
+        }),
+        ("angle of attack, up (not normalized)", "deg", |e| {
+            e.world.as_ref().and_then(|w| w.aoa_up)
+        }),
+        ("angle of attack, right (not normalized)", "deg", |e| {
+            e.world.as_ref().and_then(|w| w.aoa_right)
         }),
     ];
     if evaluations.iter().any(|e| e.world.is_some()) {

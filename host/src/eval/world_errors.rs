@@ -22,6 +22,15 @@ pub struct WorldEvaluation {
     pub nose_el: Option<Summary>,
     /// Distance of the body origin in E from the truth, m/km.
     pub origin: Option<Summary>,
+    /// Frames with an angle of attack in the results and in the truth.
+    pub frames_with_aoa: usize,
+    /// Error of the total angle of attack, deg (not normalized: it is an angle between two
+    /// directions in E, whatever the range).
+    pub aoa: Option<Summary>,
+    /// Error of its component up, deg.
+    pub aoa_up: Option<Summary>,
+    /// Error of its component right, deg.
+    pub aoa_right: Option<Summary>,
 }
 
 /// The world-frame errors of `rows` on `clip`; None where the clip has no mount columns or no
@@ -36,6 +45,7 @@ pub fn evaluate(clip: &Clip, rows: &[ResultRow]) -> Option<WorldEvaluation> {
         .filter_map(|r| r.frame.map(|f| (f, r)))
         .collect();
     let (mut az, mut el, mut origin) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut aoa, mut aoa_up, mut aoa_right) = (Vec::new(), Vec::new(), Vec::new());
     for frame in clip.frames.iter().filter_map(|f| f.as_ref().ok()) {
         let (Some(truth), Some(mount), Some(row)) =
             (frame.truth, frame.mount, by_frame.get(&frame.frame))
@@ -63,11 +73,25 @@ pub fn evaluate(clip: &Clip, rows: &[ResultRow]) -> Option<WorldEvaluation> {
         el.push((nose_el - expected.nose_el_deg).abs() / km);
         let [te, tn, tu] = expected.origin_enu_m;
         origin.push(((e - te).powi(2) + (n - tn).powi(2) + (u - tu).powi(2)).sqrt() / km);
+        if let (Some(truth), Some(total), Some(up), Some(right)) = (
+            frame.truth_aoa,
+            row.aoa_deg,
+            row.aoa_up_deg,
+            row.aoa_right_deg,
+        ) {
+            aoa.push((total - truth.total_deg).abs());
+            aoa_up.push((up - truth.up_deg).abs());
+            aoa_right.push((right - truth.right_deg).abs());
+        }
     }
     (!az.is_empty()).then(|| WorldEvaluation {
         frames: az.len(),
         nose_az: summarize(&az),
         nose_el: summarize(&el),
         origin: summarize(&origin),
+        frames_with_aoa: aoa.len(),
+        aoa: summarize(&aoa),
+        aoa_up: summarize(&aoa_up),
+        aoa_right: summarize(&aoa_right),
     })
 }

@@ -25,6 +25,8 @@ pub struct FramePlan {
     pub camera: CameraPose,
     /// Body position in W, m.
     pub body_world: Vec3,
+    /// Body velocity in W, m/s.
+    pub velocity_world: Vec3,
     /// R_WB: the body axes in W (columns x_B, y_B, z_B).
     pub body_axes_world: Mat3,
     /// Body pose in the camera frame.
@@ -110,6 +112,7 @@ pub fn plan_frames(scenario: &Scenario, trajectory: &Trajectory) -> anyhow::Resu
                 time_s: t,
                 camera,
                 body_world: state.position,
+                velocity_world: state.velocity,
                 body_axes_world: r_wb,
                 body,
                 attitude: body.attitude(),
