@@ -58,6 +58,14 @@ fn set_field(clip: &Path, line: usize, column: usize, value: &str) {
     std::fs::write(clip.join("frames.csv"), lines.join("\n") + "\n").unwrap();
 }
 
+/// The index of the `frames.csv` column named `name`.
+fn column_of(clip: &Path, name: &str) -> usize {
+    frames_lines(clip)[0]
+        .split(',')
+        .position(|c| c == name)
+        .unwrap_or_else(|| panic!("no column {name}"))
+}
+
 /// The frame number on file line `line` of the pristine fixture.
 fn frame_on_line(line: usize) -> String {
     frames_lines(Path::new(FIXTURE))[line - 1]
@@ -207,6 +215,21 @@ fn a_negative_range_is_a_bad_row() {
     assert_one_bad_frame(&s, &o, &frame, "bad_row", &["frames.csv line 8", "range_m"]);
 }
 
+#[test]
+fn a_mount_elevation_beyond_the_vertical_is_a_bad_row() {
+    let s = scratch();
+    let frame = frame_on_line(4);
+    set_field(&s.clip, 4, column_of(&s.clip, "mount_el_deg"), "91.5");
+    let o = run_imade(&s);
+    assert_one_bad_frame(
+        &s,
+        &o,
+        &frame,
+        "bad_row",
+        &["frames.csv line 4", "mount_el_deg must be within [-90, 90]"],
+    );
+}
+
 /// Rewrites one key of `clip.json`.
 fn set_meta(clip: &Path, key: &str, value: &str) {
     let path = clip.join("clip.json");
@@ -346,7 +369,7 @@ fn paths_outside_the_clip_folder_are_refused_and_the_other_frames_run() {
     set_field(&s.clip, 6, 2, "chips/../../outside.png");
     set_field(&s.clip, 7, 2, outside_chip.to_str().unwrap());
     // `imade run` does not read the ground-truth masks; `imade eval` refuses this one.
-    set_field(&s.clip, 8, 12, "../outside-mask.png");
+    set_field(&s.clip, 8, column_of(&s.clip, "gt_mask"), "../outside-mask.png");
     let clip_before = tree(&s.clip);
 
     let output = Command::new(env!("CARGO_BIN_EXE_imade"))

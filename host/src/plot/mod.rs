@@ -6,7 +6,9 @@
 //! | `errors.png` | Fig. 22 / 23 | box plots of the 1-km-normalized errors per parameter, one box per run, the paper's accuracy in red |
 //! | `iou.png` | Fig. 19 | box plots of the IoU of each segmentation stage, one box per run, the paper's median in red |
 //! | `overlays-<run>.png` | Fig. 17 | the mask (green) and the shape prior's outline (red) on chips spread over the clip |
+//! | `aoa-<run>.png` | (none) | where the results state the world frame: the angle of attack and its components up and right over the frames, and the damping plot of up against right, against the truth |
 
+pub mod aoa;
 pub mod boxes;
 pub mod errors;
 pub mod font;
@@ -61,6 +63,13 @@ pub fn plot_all(
         pose_series::plot(clip, &rows, &title, &path)
             .with_context(|| format!("plotting {}", path.display()))?;
         written.push(path);
+        let path = out.join(format!("aoa-{label}.png"));
+        let title = format!("{label}: angle of attack in the world frame");
+        if aoa::plot(clip, &rows, &title, &path)
+            .with_context(|| format!("plotting {}", path.display()))?
+        {
+            written.push(path);
+        }
         let path = out.join(format!("overlays-{label}.png"));
         let dir = evaluation.results.parent().unwrap_or(Path::new("."));
         if overlay::plot(clip, dir, &path)
