@@ -369,7 +369,12 @@ fn paths_outside_the_clip_folder_are_refused_and_the_other_frames_run() {
     set_field(&s.clip, 6, 2, "chips/../../outside.png");
     set_field(&s.clip, 7, 2, outside_chip.to_str().unwrap());
     // `imade run` does not read the ground-truth masks; `imade eval` refuses this one.
-    set_field(&s.clip, 8, column_of(&s.clip, "gt_mask"), "../outside-mask.png");
+    set_field(
+        &s.clip,
+        8,
+        column_of(&s.clip, "gt_mask"),
+        "../outside-mask.png",
+    );
     let clip_before = tree(&s.clip);
 
     let output = Command::new(env!("CARGO_BIN_EXE_imade"))
