@@ -87,6 +87,7 @@ fn estimate(
         chip,
         time_s: 0.0,
         range_m: range_known.then_some(range as f32),
+        mount: None,
     });
     if result.status != Status::Ok {
         return None;

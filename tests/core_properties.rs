@@ -230,6 +230,7 @@ proptest! {
                 chip,
                 time_s: k as f64 / 30.0,
                 range_m: range,
+                mount: None,
             });
             check(&pipeline, &chip, &result)?;
         }

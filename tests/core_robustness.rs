@@ -55,6 +55,7 @@ fn process(
         chip,
         time_s,
         range_m: range,
+        mount: None,
     })
 }
 

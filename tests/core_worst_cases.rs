@@ -29,6 +29,7 @@ fn process(pipeline: &mut Pipeline, chip: ChipView, range_m: Option<f32>) -> Fra
         chip,
         time_s: 0.0,
         range_m,
+        mount: None,
     });
     assert_consistent(pipeline, &chip, &result);
     result

@@ -335,6 +335,7 @@ fn fixture_clip_blind_prior_and_refined_masks() {
             chip,
             time_s: row.time_s,
             range_m: row.range_m.map(|r| r as f32),
+            mount: row.mount,
         });
         if result.status == Status::Ok {
             blind.push(iou(pipeline.mask(), &truth, w));
@@ -538,6 +539,7 @@ fn run_loop(method: Option<GuidedMethod>, range_use: RangeUse) -> Vec<LoopFrame>
             chip,
             time_s: row.time_s,
             range_m: row.range_m.map(|r| r as f32),
+            mount: row.mount,
         });
         if result.status != Status::Ok {
             continue;

@@ -33,6 +33,7 @@ fn run(table: bool, range: RangeUse) -> Vec<Errors> {
             chip: chip.view(row.chip_x0 as i32, row.chip_y0 as i32).unwrap(),
             time_s: row.time_s,
             range_m: row.range_m.map(|r| r as f32),
+            mount: row.mount,
         });
         if result.status != Status::Ok {
             continue;

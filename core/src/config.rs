@@ -10,6 +10,7 @@ pub use crate::table_match::{GuidedLoopConfig, GuidedMethod, MatchConfig};
 pub use crate::temporal::{RangeSmoothing, TemporalConfig};
 pub use crate::track::TrackConfig;
 pub use crate::uncertainty::UncertaintyConfig;
+pub use crate::world::WorldConfig;
 
 /// Which contrast polarity the projectile's body has against the sky.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -61,6 +62,9 @@ pub struct Config {
     pub track: TrackConfig,
     /// The pose's uncertainties: the ends' precision.
     pub uncertainty: UncertaintyConfig,
+    /// The world frame, where a frame comes with the mount's pointing: the velocity's fit and
+    /// the yaw choice it makes.
+    pub world: WorldConfig,
 }
 
 impl Config {
@@ -74,6 +78,7 @@ impl Config {
         temporal: TemporalConfig::DEFAULT,
         track: TrackConfig::DEFAULT,
         uncertainty: UncertaintyConfig::DEFAULT,
+        world: WorldConfig::DEFAULT,
     };
 }
 

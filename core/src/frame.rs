@@ -6,6 +6,7 @@ use crate::extremes::Silhouette;
 use crate::pose::Pose;
 use crate::segment::{CapacityKind, SegmentError, TrackUse};
 use crate::table_match::search::Match;
+use crate::world::{Mount, WorldState};
 
 /// One frame's input.
 #[derive(Debug, Clone, Copy)]
@@ -16,6 +17,9 @@ pub struct FrameInput<'a> {
     pub time_s: f64,
     /// Slant range to the body origin from a range sensor, m, where there is one.
     pub range_m: Option<f32>,
+    /// Where the tracking mount pointed the camera, where it says: the result is then stated
+    /// in the world frame too ([`FrameResult::world`]).
+    pub mount: Option<Mount>,
 }
 
 /// What became of a frame.
@@ -126,6 +130,8 @@ pub struct FrameResult {
     pub matched: Option<Match>,
     /// How detection used the track across frames, where a target was found.
     pub track: Option<TrackUse>,
+    /// The frame in the world frame, where it has a pose and the mount's pointing.
+    pub world: Option<WorldState>,
 }
 
 impl FrameResult {
@@ -242,6 +248,7 @@ impl FrameResult {
             track: None,
             silhouette: None,
             matched: None,
+            world: None,
         }
     }
 }

@@ -10,6 +10,7 @@
 //! | table match | [`crate::table_match`] | [`Measurement`] (and the shape prior) |
 //! | grey-level fit | [`crate::grey_fit`] | [`Measurement::fitted`] |
 //! | temporal estimate | [`crate::temporal`] | [`Estimate`]: range and yaw choice |
+//! | world frame (with the mount's pointing) | [`crate::world`] | [`Motion`]: the velocity, which may settle the yaw choice; [`FrameResult::world`] |
 
 use crate::camera::Camera;
 use crate::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS, OUTLINE_COLUMNS};
@@ -31,15 +32,17 @@ use crate::segment::{
 #[cfg(feature = "shape-guided")]
 use crate::table_match::guided_loop::LoopOutcome;
 use crate::table_match::{MatchedPose, Measurement, TableMatch};
-use crate::temporal::{Estimate, Observation, Prediction, Temporal};
+use crate::temporal::{Estimate, Observation, Prediction, Temporal, YawChoice};
 use crate::track::Track;
 use crate::uncertainty::{self, AngleVariance, EndSd};
+use crate::world::{Motion, Mount, Side, Station, WorldStage};
 
 /// A frame's input, checked: the range to use and the camera valid.
 struct CheckedInput<'a> {
     chip: &'a ChipView<'a>,
     time_s: f64,
     sensor_range_m: Option<f32>,
+    mount: Option<Mount>,
 }
 
 /// What a frame's ok result was solved from: kept so that a recorded clip's frames can be solved
@@ -54,6 +57,9 @@ pub struct Solved {
     pub track: TrackUse,
     /// One sigma of the silhouette's ends ([`uncertainty::end_sd`]).
     pub end_sd: EndSd,
+    /// How the frame was seen moving in the world frame, where it came with the mount's
+    /// pointing.
+    pub motion: Option<Motion>,
 }
 
 /// The pipeline with its stages: `MAX_RUNS` and `MAX_LABELS` size the detection's labeler,
@@ -74,6 +80,8 @@ pub struct Pipeline<
     table_match: TableMatch<MASK_WORDS>,
     temporal: Temporal,
     track: Track,
+    world: WorldStage,
+    station: Station,
     solved: Option<Solved>,
     range_step: Option<FilterStep>,
 }
@@ -95,6 +103,8 @@ impl<
             table_match: TableMatch::new(),
             temporal: Temporal::new(),
             track: Track::new(),
+            world: WorldStage::new(),
+            station: Station { enu_m: [0.0; 3] },
             solved: None,
             range_step: None,
         }
@@ -112,6 +122,12 @@ impl<
     /// small stack (the firmware's) is given its table this way.
     pub const fn set_table(&mut self, table: Table<'static>) {
         self.table_match.set_table(table);
+    }
+
+    /// Where the camera stands in the world frame (the origin until set): the frames that come
+    /// with the mount's pointing are stated from there.
+    pub const fn set_station(&mut self, station: Station) {
+        self.station = station;
     }
 
     /// The configuration.
@@ -166,6 +182,7 @@ impl<
     /// result's contract.
     pub fn resolve(&self, solved: &Solved, estimate: &Estimate) -> FrameResult {
         let result = self.result(&solved.measurement, estimate, solved.end_sd, solved.track);
+        let (result, _) = self.placed(solved, *estimate, result);
         match result.check() {
             Ok(()) => result,
             Err(_) => FrameResult::from_error(FrameError::Unmeasurable),
@@ -176,6 +193,7 @@ impl<
     pub fn reset(&mut self) {
         self.temporal.reset();
         self.track.reset();
+        self.world.reset();
         self.detect.clear_mask();
         self.table_match.clear();
     }
@@ -237,13 +255,65 @@ impl<
             return FrameResult::from_error(FrameError::Unmeasurable);
         }
         self.track.update(input.time_s, &target);
-        self.solved = Some(Solved {
+        let motion = input.mount.and_then(|mount| {
+            let config = &self.config.world;
+            self.world
+                .motion(input.time_s, &result, mount, &self.station, config)
+        });
+        let mut solved = Solved {
             measurement,
             estimate,
             track: target.track,
             end_sd,
-        });
+            motion,
+        };
+        let (result, estimate) = self.placed(&solved, estimate, result);
+        solved.estimate = estimate;
+        self.solved = Some(solved);
         result
+    }
+
+    /// The ok `result` of the frame `solved` at `estimate`, placed in the world frame where the
+    /// frame came with the mount's pointing: where the velocity tells the nose from its mirror
+    /// image ([`Motion::side`]), that candidate, resolved, and the estimate with that choice;
+    /// where the velocity lies too near the image plane to tell, the choice unresolved.
+    fn placed(
+        &self,
+        solved: &Solved,
+        estimate: Estimate,
+        result: FrameResult,
+    ) -> (FrameResult, Estimate) {
+        let Some(motion) = solved.motion.filter(|_| result.status == Status::Ok) else {
+            return (result, estimate);
+        };
+        let margin = self.config.world.side_margin_deg;
+        let choice = |away: bool, resolved: bool| YawChoice { away, resolved };
+        let away = estimate.choice.away;
+        let choice = match motion.side(&result, &self.station, margin) {
+            None => None,
+            Some(Side::Chosen) => Some(choice(away, true)),
+            Some(Side::Mirrored) => Some(choice(!away, true)),
+            Some(Side::Either) => Some(choice(away, false)),
+        };
+        let (mut result, estimate) = match choice {
+            // The other candidate: solved again.
+            Some(choice) if choice.away != away => {
+                let estimate = Estimate { choice, ..estimate };
+                let result =
+                    self.result(&solved.measurement, &estimate, solved.end_sd, solved.track);
+                (result, estimate)
+            }
+            Some(choice) => (
+                FrameResult {
+                    yaw_resolved: choice.resolved,
+                    ..result
+                },
+                Estimate { choice, ..estimate },
+            ),
+            None => (result, estimate),
+        };
+        result.world = Some(motion.state(&result, &self.station));
+        (result, estimate)
     }
 
     /// The image work of one frame, stage by stage, up to the grey-level fit: the target and the
@@ -378,6 +448,7 @@ impl<
             chip: &input.chip,
             time_s: input.time_s,
             sensor_range_m,
+            mount: input.mount,
         })
     }
 
@@ -468,6 +539,7 @@ impl<
             silhouette: Some(measured.hypothesis.silhouette),
             matched: measured.matched.map(|m| m.matched),
             track: Some(track),
+            world: None,
         }
     }
 }

@@ -29,7 +29,6 @@ use host_io::{Args, IoError};
 use icount::InstructionCounter;
 use imade_core::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS, mask_words};
 use imade_core::lut::table::Table;
-use imade_core::world::{WorldConfig, WorldStage};
 use imade_core::{
     Config, FrameInput, FrameResult, MatchConfig, ModelError, Pipeline, ProjectileModel,
 };
@@ -160,6 +159,9 @@ fn run() -> Result<(), Error> {
     if let Some(table) = table {
         pipeline.set_table(table);
     }
+    if let Some(station) = header.world {
+        pipeline.set_station(station);
+    }
     defmt::info!(
         "pipeline: {=usize} B (on the stack), chip buffer: {=usize} B (static); stack peak so far {=usize} B",
         core::mem::size_of_val(&pipeline),
@@ -172,9 +174,6 @@ fn run() -> Result<(), Error> {
         measurements_path,
         header.world.is_some(),
     )?;
-    let mut world = header
-        .world
-        .map(|station| WorldStage::new(station, WorldConfig::DEFAULT));
     for _ in 0..header.records {
         let record = imade_pack::read_record(&mut input, chip)?;
         let mut instructions = None;
@@ -183,7 +182,7 @@ fn run() -> Result<(), Error> {
             instructions = count;
             result
         });
-        outputs.frame(&outcome, instructions, world.as_mut())?;
+        outputs.frame(&outcome, instructions, header.world.is_some())?;
     }
     defmt::info!(
         "done: {=u32} frames, stack peak {=usize} B",

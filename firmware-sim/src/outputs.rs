@@ -12,7 +12,6 @@ use crate::host_io::{self, IoError, OutputFile};
 use crate::stack;
 use core::fmt::Write;
 use imade_core::results;
-use imade_core::world::WorldStage;
 use imade_pack::Outcome;
 
 /// Longest line written, bytes (an outcome's `Debug` form is the longest).
@@ -65,12 +64,12 @@ impl Outputs {
     }
 
     /// Reports one frame: `instructions` is what the pipeline took, where it ran and was counted;
-    /// `world` is the world frame's stage where the clip has the mount's columns.
+    /// `world`: the clip has the mount's columns.
     pub fn frame(
         &mut self,
         outcome: &Outcome,
         instructions: Option<u32>,
-        world: Option<&mut WorldStage>,
+        world: bool,
     ) -> Result<(), OutputError> {
         let mut line = heapless::String::<MAX_LINE>::new();
         outcome
@@ -81,7 +80,7 @@ impl Outputs {
         write!(line, "{outcome:?}").map_err(|_| OutputError::LineTooLong)?;
         self.outcomes.write_line(&line)?;
         match outcome {
-            Outcome::Processed { frame, result, .. } => {
+            Outcome::Processed { frame, result } => {
                 let stack_peak = stack::peak_bytes();
                 defmt::info!(
                     "frame {=u64}: {=str} {} pitch_alt {=f32} yaw_alt {=f32} resolved {=bool} range_used {=bool}; {} instructions, stack peak {=usize} B",

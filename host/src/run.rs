@@ -7,7 +7,6 @@ use crate::smooth::{Recorded, smoothed_results};
 use crate::stages::{STAGES, mask_file_name};
 use crate::summary::{ClipSummary, Problem, RunSummary, SUMMARY_FORMAT};
 use anyhow::{Context, bail};
-use imade_core::world::{Mount, WorldConfig, WorldStage};
 use imade_core::{
     Config, FrameInput, GuidedMethod, Pipeline, RangeSmoothing, RangeUse, Status, results,
 };
@@ -301,16 +300,7 @@ fn pipeline_for(clip: &Clip, config: Config, lut: &str) -> anyhow::Result<Box<Pi
 /// One row of a clip's results, before the results file is written.
 enum Row {
     /// A frame the pipeline processed.
-    Frame {
-        /// Its number.
-        frame: u64,
-        /// Its capture time, s.
-        time_s: f64,
-        /// The pipeline's result.
-        result: imade_core::FrameResult,
-        /// Where the mount pointed the camera, where the clip says.
-        mount: Option<Mount>,
-    },
+    Frame(u64, imade_core::FrameResult),
     /// A frame or line that could not be processed: its frame number where known, and status.
     Unusable(Option<u64>, &'static str),
 }
@@ -318,6 +308,7 @@ enum Row {
 /// Processes one opened clip and writes its results CSV atomically (and the stage masks).
 pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<ClipSummary> {
     let mut pipeline = pipeline_for(clip, job_config(job), &job.lut)?;
+    pipeline.set_station(clip.station());
     prepare_mask_folders(&job.out_dir, job.save_masks)?;
     let mut summary = ClipSummary {
         clip: clip.dir.clone(),
@@ -339,12 +330,7 @@ pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<Cli
                         step: pipeline.last_range_step(),
                         solved: pipeline.last_solved().copied(),
                     });
-                    Row::Frame {
-                        frame: row.frame,
-                        time_s: row.time_s,
-                        result,
-                        mount: row.mount,
-                    }
+                    Row::Frame(row.frame, result)
                 }
                 Err(error) => {
                     let message = format!(
@@ -367,7 +353,7 @@ pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<Cli
     }
     if job.smooth {
         for (index, result) in smoothed_results(&pipeline, &recorded) {
-            if let Some(Row::Frame { result: kept, .. }) = rows.get_mut(index) {
+            if let Some(Row::Frame(_, kept)) = rows.get_mut(index) {
                 *kept = result;
             }
         }
@@ -377,18 +363,11 @@ pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<Cli
         csv.push_str(results::WORLD_HEADER);
     }
     csv.push('\n');
-    let mut world_stage = WorldStage::new(clip.station(), WorldConfig::DEFAULT);
     for row in &rows {
         let (status, world) = match row {
-            Row::Frame {
-                frame,
-                time_s,
-                result,
-                mount,
-            } => {
+            Row::Frame(frame, result) => {
                 results::write_row(&mut csv, *frame, result).context("formatting a results row")?;
-                let world = world_stage.state(*time_s, result, mount.as_ref());
-                (result.status.as_str(), world)
+                (result.status.as_str(), result.world)
             }
             Row::Unusable(frame, status) => {
                 results::write_status_row(&mut csv, *frame, status)
@@ -487,6 +466,7 @@ fn process_frame(
         chip: view,
         time_s: row.time_s,
         range_m: row.range_m.map(|r| r as f32),
+        mount: row.mount,
     }))
 }
 

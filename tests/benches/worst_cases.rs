@@ -187,6 +187,7 @@ fn worst_cases(c: &mut Criterion<ThreadCpuTime>) {
                 chip: case.view(),
                 time_s,
                 range_m: None,
+                mount: None,
             })
         };
         let result = frame();

@@ -12,6 +12,7 @@ use imade_core::lut::table::Table;
 use imade_core::mask::ChipMask;
 use imade_core::segment::bar::BarConfig;
 use imade_core::segment::corridor::CorridorConfig;
+use imade_core::world::{Mount, WorldConfig};
 use imade_core::{
     BodyPolarity, Camera, Config, DetectConfig, FrameInput, GuidedLoopConfig, GuidedMethod,
     MatchConfig, Pipeline, RangeFilterConfig, RangeSmoothing, RangeUse, SilhouetteConfig,
@@ -97,6 +98,8 @@ enum ConfigSpec {
         bar: Option<[f32; 15]>,
         /// Every tunable of the sky corridor, in its field order (None: the tiles' sky).
         corridor: Option<[f32; 6]>,
+        /// Every tunable of the world stage, in its field order.
+        world: [f64; 3],
     },
 }
 
@@ -108,6 +111,8 @@ struct FrameSpec {
     origin: (i32, i32),
     time: TimeSpec,
     range: Option<RangeSpec>,
+    /// The mount's pointing, deg (refused ones are no pointing, as the clip reader makes them).
+    mount: Option<(f64, f64)>,
 }
 
 #[derive(Arbitrary, Debug)]
@@ -200,6 +205,7 @@ fn config(spec: &ConfigSpec) -> Config {
             grey_fit: g,
             bar,
             corridor,
+            world: w,
         } => Config {
             range_use: range_use(ignore_range),
             detect: DetectConfig {
@@ -293,6 +299,11 @@ fn config(spec: &ConfigSpec) -> Config {
                     ..GuidedLoopConfig::DEFAULT
                 },
             },
+            world: WorldConfig {
+                max_span_s: w[0],
+                max_gap_s: w[1],
+                side_margin_deg: w[2],
+            },
             uncertainty: UncertaintyConfig {
                 end_gain: u[0],
                 min_end_sd_px: u[1],
@@ -383,10 +394,14 @@ fn run<const R: usize, const L: usize>(mut pipeline: Box<Pipeline<R, L>>, input:
             RangeSpec::Metres(m) => f32::from(m),
             RangeSpec::Raw(r) => r,
         });
+        let mount = frame
+            .mount
+            .and_then(|(az, el)| Mount::new_checked(az, el).ok());
         let result = pipeline.process(&FrameInput {
             chip: view,
             time_s,
             range_m,
+            mount,
         });
         oracle::check(&pipeline, &view, &result);
     }

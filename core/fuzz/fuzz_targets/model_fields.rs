@@ -66,6 +66,7 @@ fuzz_target!(|input: Input| {
         chip: view,
         time_s: 0.0,
         range_m: input.range_m.map(f32::from),
+        mount: None,
     });
     oracle::check(&pipeline, &view, &result);
 });

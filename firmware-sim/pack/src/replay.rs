@@ -3,7 +3,6 @@
 
 use crate::format::{ChipFrame, Header, Record, SampleDepth};
 use core::fmt;
-use imade_core::world::{Mount, WorldStage};
 use imade_core::{ChipError, ChipView, Config, FrameInput, FrameResult, results};
 
 impl Header {
@@ -36,6 +35,7 @@ impl ChipFrame {
             chip: view,
             time_s: self.time_s,
             range_m: self.range_m,
+            mount: self.mount,
         })
     }
 }
@@ -47,12 +47,8 @@ pub enum Outcome {
     Processed {
         /// Frame number.
         frame: u64,
-        /// Capture time, s.
-        time_s: f64,
         /// The pipeline's result.
         result: FrameResult,
-        /// Where the mount pointed the camera, where the row says.
-        mount: Option<Mount>,
     },
     /// The frame had no usable input; its results row carries only a status.
     Unusable {
@@ -74,9 +70,7 @@ pub fn replay(
         Record::Chip(c) => match c.input(chip) {
             Ok(input) => Outcome::Processed {
                 frame: c.frame,
-                time_s: c.time_s,
                 result: process(&input),
-                mount: c.mount,
             },
             Err(_) => Outcome::Unusable {
                 frame: Some(c.frame),
@@ -96,31 +90,22 @@ pub fn replay(
 
 impl Outcome {
     /// Writes the outcome's imade-results/1 row, without a line end; with the world frame's
-    /// columns where the clip has the mount's (`world`: its stage, fed every row in order).
-    pub fn write_row(
-        &self,
-        out: &mut impl fmt::Write,
-        world: Option<&mut WorldStage>,
-    ) -> fmt::Result {
+    /// columns where `world` (the clip has the mount's).
+    pub fn write_row(&self, out: &mut impl fmt::Write, world: bool) -> fmt::Result {
         let state = match self {
-            Outcome::Processed {
-                frame,
-                time_s,
-                result,
-                mount,
-            } => {
+            Outcome::Processed { frame, result } => {
                 results::write_row(out, *frame, result)?;
-                world.map(|w| w.state(*time_s, result, mount.as_ref()))
+                result.world
             }
             Outcome::Unusable { frame, status } => {
                 results::write_status_row(out, *frame, status)?;
-                world.map(|_| None)
+                None
             }
         };
-        match state {
-            Some(state) => results::write_world_columns(out, state.as_ref()),
-            None => Ok(()),
+        if world {
+            results::write_world_columns(out, state.as_ref())?;
         }
+        Ok(())
     }
 
     /// The outcome's results status.

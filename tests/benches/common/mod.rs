@@ -38,6 +38,7 @@ impl Frame {
             chip: self.view(),
             time_s: self.time_s,
             range_m: self.range_m,
+            mount: None,
         }
     }
 }
