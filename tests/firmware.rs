@@ -131,6 +131,9 @@ fn host_outcomes(mut packed: &[u8], lut: &str) -> anyhow::Result<Vec<String>> {
     let table = model.table().context("no table in the model file")?;
     let mut pipeline: Box<Pipeline> =
         Box::new(Pipeline::new(header.config(), header.camera, model).with_table(table));
+    if let Some(station) = header.world {
+        pipeline.set_station(station);
+    }
     let mut chip = vec![0u16; imade_core::capacity::MAX_CHIP_PIXELS];
     (0..header.records)
         .map(|_| {
