@@ -296,18 +296,74 @@ pub enum Side {
     Either,
 }
 
-/// A recent position of the body origin.
+/// A position of the body origin at a frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Fix {
-    time_s: f64,
-    enu_m: [f64; 3],
-    range_used: bool,
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Position {
+    /// The frame's capture time, s.
+    pub time_s: f64,
+    /// East, north and up, m.
+    pub enu_m: [f64; 3],
+    /// True where a range sensor's reading placed it along the line of sight.
+    pub range_used: bool,
+}
+
+impl Position {
+    /// The body origin of the ok `result` at `time_s`, seen from `station` pointed as `mount`.
+    pub fn of(time_s: f64, result: &FrameResult, mount: &Mount, station: &Station) -> Position {
+        Position {
+            time_s,
+            enu_m: WorldPose::of(&result.pose, mount, station).origin_enu_m,
+            range_used: result.range_used,
+        }
+    }
+}
+
+/// The velocity at `at_s`, m/s in E: the slope there of a least-squares quadratic in time
+/// through `positions` (a line through two); None with fewer than two, where any had its range
+/// from the image (its place along the line of sight scatters by metres), or where their times
+/// do not determine the fit.
+pub fn velocity_at<'a>(
+    positions: impl IntoIterator<Item = &'a Position>,
+    at_s: f64,
+) -> Option<[f64; 3]> {
+    // Normal equations of p(t) = a + b tau + c tau^2, tau = t - at_s, per axis.
+    let mut normal = Matrix3::<f64>::zeros();
+    let mut rhs = Matrix3::<f64>::zeros();
+    let mut count = 0;
+    for position in positions {
+        if !position.range_used {
+            return None;
+        }
+        let tau = position.time_s - at_s;
+        let basis = Vector3::new(1.0, tau, tau * tau);
+        normal += basis * basis.transpose();
+        for (axis, value) in position.enu_m.iter().enumerate() {
+            for i in 0..3 {
+                rhs[(i, axis)] += basis[i] * value;
+            }
+        }
+        count += 1;
+    }
+    if count < 2 {
+        return None;
+    }
+    if count == 2 {
+        // A line: the quadratic term held at zero.
+        normal.row_mut(2).fill(0.0);
+        normal.column_mut(2).fill(0.0);
+        normal[(2, 2)] = 1.0;
+        rhs.row_mut(2).fill(0.0);
+    }
+    let solution = normal.try_inverse()? * rhs;
+    let velocity = [solution[(1, 0)], solution[(1, 1)], solution[(1, 2)]];
+    velocity.iter().all(|v| v.is_finite()).then_some(velocity)
 }
 
 /// The world stage's state: the body origin's recent positions, for the velocity.
 #[derive(Debug, Clone, Default)]
 pub struct WorldStage {
-    flight: heapless::Deque<Fix, FLIGHT_SAMPLES>,
+    flight: heapless::Deque<Position, FLIGHT_SAMPLES>,
 }
 
 impl WorldStage {
@@ -337,7 +393,7 @@ impl WorldStage {
         if result.status != Status::Ok {
             return None;
         }
-        let origin = WorldPose::of(&result.pose, &mount, station).origin_enu_m;
+        let position = Position::of(time_s, result, &mount, station);
         let stale = self.flight.back().is_some_and(|last| {
             !(time_s > last.time_s && time_s - last.time_s <= config.max_gap_s)
         });
@@ -353,52 +409,11 @@ impl WorldStage {
             self.flight.pop_front();
         }
         // Room was made above.
-        let _ = self.flight.push_back(Fix {
-            time_s,
-            enu_m: origin,
-            range_used: result.range_used,
-        });
-        let velocity = if self.flight.iter().all(|f| f.range_used) {
-            self.velocity()
-        } else {
-            None
-        };
+        let _ = self.flight.push_back(position);
         Some(Motion {
             mount,
-            velocity_enu_m_s: velocity,
+            velocity_enu_m_s: velocity_at(&self.flight, time_s),
         })
-    }
-
-    /// The velocity at the newest position, m/s in E: the slope of a least-squares quadratic in
-    /// time through the recent positions (a line through two); None with fewer.
-    fn velocity(&self) -> Option<[f64; 3]> {
-        let newest = self.flight.back()?.time_s;
-        let n = self.flight.len();
-        if n < 2 {
-            return None;
-        }
-        let terms = if n == 2 { 2 } else { 3 };
-        // Normal equations of p(t) = a + b tau + c tau^2, tau = t - newest, per axis.
-        let mut normal = Matrix3::<f64>::zeros();
-        let mut rhs = Matrix3::<f64>::zeros();
-        for fix in &self.flight {
-            let tau = fix.time_s - newest;
-            let basis = Vector3::new(1.0, tau, tau * tau);
-            for i in 0..terms {
-                for j in 0..terms {
-                    normal[(i, j)] += basis[i] * basis[j];
-                }
-                for (axis, value) in fix.enu_m.iter().enumerate() {
-                    rhs[(i, axis)] += basis[i] * value;
-                }
-            }
-        }
-        if terms == 2 {
-            normal[(2, 2)] = 1.0;
-        }
-        let solution = normal.try_inverse()? * rhs;
-        let velocity = [solution[(1, 0)], solution[(1, 1)], solution[(1, 2)]];
-        velocity.iter().all(|v| v.is_finite()).then_some(velocity)
     }
 }
 

@@ -7,6 +7,7 @@ use crate::smooth::{Recorded, smoothed_results};
 use crate::stages::{STAGES, mask_file_name};
 use crate::summary::{ClipSummary, Problem, RunSummary, SUMMARY_FORMAT};
 use anyhow::{Context, bail};
+use imade_core::world::Position;
 use imade_core::{
     Config, FrameInput, GuidedMethod, Pipeline, RangeSmoothing, RangeUse, Status, results,
 };
@@ -308,7 +309,8 @@ enum Row {
 /// Processes one opened clip and writes its results CSV atomically (and the stage masks).
 pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<ClipSummary> {
     let mut pipeline = pipeline_for(clip, job_config(job), &job.lut)?;
-    pipeline.set_station(clip.station());
+    let station = clip.station();
+    pipeline.set_station(station);
     prepare_mask_folders(&job.out_dir, job.save_masks)?;
     let mut summary = ClipSummary {
         clip: clip.dir.clone(),
@@ -329,6 +331,10 @@ pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<Cli
                         row: rows.len(),
                         step: pipeline.last_range_step(),
                         solved: pipeline.last_solved().copied(),
+                        position: row
+                            .mount
+                            .filter(|_| result.status == Status::Ok)
+                            .map(|m| Position::of(row.time_s, &result, &m, &station)),
                     });
                     Row::Frame(row.frame, result)
                 }

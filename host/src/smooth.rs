@@ -12,6 +12,7 @@
 use imade_core::pipeline::Solved;
 use imade_core::range_filter::{self, FilterStep};
 use imade_core::temporal::{Estimate, YawChoice};
+use imade_core::world::{self, FLIGHT_SAMPLES, Motion, Position, WorldConfig};
 use imade_core::{FrameResult, Pipeline};
 
 /// One processed frame of a recorded clip: its place among the clip's rows, the range filter's
@@ -24,6 +25,8 @@ pub struct Recorded {
     pub step: Option<FilterStep>,
     /// What the pipeline solved the frame's pose from ([`Pipeline::last_solved`]).
     pub solved: Option<Solved>,
+    /// The body origin in the world frame, where the frame has a pose and the mount's pointing.
+    pub position: Option<Position>,
 }
 
 /// The smoothed results of the `recorded` frames (in time order) that have a pose and a filter
@@ -35,11 +38,13 @@ pub fn smoothed_results(pipeline: &Pipeline, recorded: &[Recorded]) -> Vec<(usiz
     let mut steps: Vec<FilterStep> = stepped.iter().filter_map(|r| r.step).collect();
     range_filter::smooth(&mut steps);
     let sigmas = pipeline.config().temporal.trend_sigma;
+    let positions: Vec<Position> = recorded.iter().filter_map(|r| r.position).collect();
+    let world_config = &pipeline.config().world;
     stepped
         .iter()
         .zip(&steps)
-        .filter_map(|(r, step)| Some((r.row, r.solved.as_ref()?, step)))
-        .map(|(row, solved, step)| {
+        .filter_map(|(r, step)| Some((r, r.solved.as_ref()?, step)))
+        .map(|(r, solved, step)| {
             let (rate, rate_sd) = step.rate();
             let choice = YawChoice::of_rate(rate, rate_sd, sigmas, solved.estimate.choice.away);
             let estimate = if solved.measurement.hypothesis.sensor_range_m.is_some() {
@@ -56,7 +61,31 @@ pub fn smoothed_results(pipeline: &Pipeline, recorded: &[Recorded]) -> Vec<(usiz
                     choice,
                 }
             };
-            (row, pipeline.resolve(solved, &estimate))
+            // The velocity from the positions before and after the frame.
+            let motion = solved.motion.map(|m| Motion {
+                velocity_enu_m_s: r
+                    .position
+                    .and_then(|p| centred_velocity(&positions, p.time_s, world_config)),
+                ..m
+            });
+            let solved = Solved { motion, ..*solved };
+            (r.row, pipeline.resolve(&solved, &estimate))
         })
         .collect()
+}
+
+/// The velocity at `time_s` from the recorded `positions` around it, before and after: the
+/// [`FLIGHT_SAMPLES`] nearest in time within half the live fit's span either side.
+fn centred_velocity(positions: &[Position], time_s: f64, config: &WorldConfig) -> Option<[f64; 3]> {
+    let mut near: Vec<&Position> = positions
+        .iter()
+        .filter(|p| (p.time_s - time_s).abs() <= 0.5 * config.max_span_s)
+        .collect();
+    near.sort_by(|a, b| {
+        (a.time_s - time_s)
+            .abs()
+            .total_cmp(&(b.time_s - time_s).abs())
+    });
+    near.truncate(FLIGHT_SAMPLES);
+    world::velocity_at(near, time_s)
 }
