@@ -289,7 +289,7 @@ impl<
         let margin = self.config.world.side_margin_deg;
         let choice = |away: bool, resolved: bool| YawChoice { away, resolved };
         let away = estimate.choice.away;
-        let choice = match motion.side(&result, &self.station, margin) {
+        let choice = match motion.side(&result, margin) {
             None => None,
             Some(Side::Chosen) => Some(choice(away, true)),
             Some(Side::Mirrored) => Some(choice(!away, true)),

@@ -21,7 +21,7 @@
 //! is 0.2 mm at 2 km and 1e-5 deg, below what the results print.
 
 use crate::frame::{FrameResult, Status};
-use crate::pose::Pose;
+use crate::pose::{Pose, nose_direction};
 use nalgebra::{Matrix3, Vector3};
 
 /// Where the tracking mount pointed the camera's optical axis at a frame's capture time.
@@ -103,26 +103,39 @@ impl WorldPose {
     /// `pose` (in C: the chosen yaw candidate's attitude) restated in E, for a camera at
     /// `station` pointed as `mount`.
     pub fn of(pose: &Pose, mount: &Mount, station: &Station) -> WorldPose {
-        let r_ec = mount.rotation_camera_to_world();
-        // The nose in C (`crate::pose::nose_direction`).
-        let (sp, cp) = sincos_deg(f64::from(pose.pitch_deg));
-        let (sy, cy) = sincos_deg(f64::from(pose.yaw_deg));
-        let n = r_ec * Vector3::new(cp * sy, -sp, cp * cy);
-        let origin_c = Vector3::new(
-            f64::from(pose.tx_m),
-            f64::from(pose.ty_m),
-            f64::from(pose.tz_m),
-        );
-        let origin = Vector3::from(station.enu_m) + r_ec * origin_c;
+        Self::with_nose(pose, &mount.rotation_camera_to_world(), station).0
+    }
+
+    /// `pose` restated in E by the rotation `r_ec` from C, and its unit nose direction in E.
+    fn with_nose(pose: &Pose, r_ec: &Matrix3<f64>, station: &Station) -> (WorldPose, Vector3<f64>) {
+        let n = nose_in_world(r_ec, pose.pitch_deg, pose.yaw_deg);
         let horizontal = libm::sqrt(n.x * n.x + n.y * n.y);
         let az = atan2_deg(n.x, n.y);
-        WorldPose {
+        let pose = WorldPose {
             // atan2 gives (-180, 180]; -0 and rounding up to 360 are folded into [0, 360).
             nose_az_deg: if az < 0.0 { (az + 360.0) % 360.0 } else { az },
             nose_el_deg: atan2_deg(n.z, horizontal),
-            origin_enu_m: [origin.x, origin.y, origin.z],
-        }
+            origin_enu_m: origin_in_world(r_ec, pose, station),
+        };
+        (pose, n)
     }
+}
+
+/// The nose direction of an attitude in C (`crate::pose::nose_direction`) turned into E by
+/// `r_ec`.
+fn nose_in_world(r_ec: &Matrix3<f64>, pitch_deg: f32, yaw_deg: f32) -> Vector3<f64> {
+    r_ec * nose_direction(pitch_deg, yaw_deg).map(f64::from)
+}
+
+/// The body origin of `pose` in E, m, for a camera at `station` turned into E by `r_ec`.
+fn origin_in_world(r_ec: &Matrix3<f64>, pose: &Pose, station: &Station) -> [f64; 3] {
+    let origin_c = Vector3::new(
+        f64::from(pose.tx_m),
+        f64::from(pose.ty_m),
+        f64::from(pose.tz_m),
+    );
+    let origin = Vector3::from(station.enu_m) + r_ec * origin_c;
+    [origin.x, origin.y, origin.z]
 }
 
 /// The angle of attack of one frame: the nose direction against the velocity, both in E.
@@ -140,10 +153,11 @@ pub struct AngleOfAttack {
 }
 
 impl AngleOfAttack {
-    /// The nose of `pose` against `velocity_enu_m_s` (E, m/s). In the plane normal to the
-    /// velocity, "right" is the horizontal `v x up` and "up" is `right x v`. None for a velocity
-    /// that is not finite or too slow to have a direction, or vertical (no horizontal right).
-    pub fn of(pose: &WorldPose, velocity_enu_m_s: &[f64; 3]) -> Option<AngleOfAttack> {
+    /// The nose direction `nose_enu` (E, unit length) against `velocity_enu_m_s` (E, m/s). In
+    /// the plane normal to the velocity, "right" is the horizontal `v x up` and "up" is
+    /// `right x v`. None for a velocity that is not finite or too slow to have a direction, or
+    /// vertical (no horizontal right).
+    pub fn of(nose_enu: &[f64; 3], velocity_enu_m_s: &[f64; 3]) -> Option<AngleOfAttack> {
         let v = Vector3::from(*velocity_enu_m_s);
         let speed = v.norm();
         if !(speed.is_finite() && speed > MIN_SPEED_M_S) {
@@ -157,9 +171,7 @@ impl AngleOfAttack {
         }
         let right = right / across;
         let up = right.cross(&forward);
-        let (se, ce) = sincos_deg(pose.nose_el_deg);
-        let (sa, ca) = sincos_deg(pose.nose_az_deg);
-        let nose = Vector3::new(sa * ce, ca * ce, se);
+        let nose = Vector3::from(*nose_enu);
         let ahead = nose.dot(&forward);
         Some(AngleOfAttack {
             total_deg: atan2_deg(nose.cross(&forward).norm(), ahead),
@@ -248,11 +260,12 @@ impl Motion {
     /// The frame of `result` (ok, its range and attitude the chosen candidate's) in E, seen
     /// from `station`.
     pub fn state(&self, result: &FrameResult, station: &Station) -> WorldState {
-        let pose = WorldPose::of(&result.pose, &self.mount, station);
+        let r_ec = self.mount.rotation_camera_to_world();
+        let (pose, nose) = WorldPose::with_nose(&result.pose, &r_ec, station);
         WorldState {
             aoa: self
                 .velocity_enu_m_s
-                .and_then(|v| AngleOfAttack::of(&pose, &v)),
+                .and_then(|v| AngleOfAttack::of(&nose.into(), &v)),
             pose,
         }
     }
@@ -261,16 +274,12 @@ impl Motion {
     /// whose nose lies nearer to it, where the candidates' angles of attack differ by more than
     /// `margin_deg`, else [`Side::Either`] (the velocity lies within the angle of attack of the
     /// image plane: the range trend cannot tell either).
-    pub fn side(&self, result: &FrameResult, station: &Station, margin_deg: f64) -> Option<Side> {
+    pub fn side(&self, result: &FrameResult, margin_deg: f64) -> Option<Side> {
         let velocity = self.velocity_enu_m_s?;
+        let r_ec = self.mount.rotation_camera_to_world();
         let aoa = |pitch_deg: f32, yaw_deg: f32| {
-            let pose = Pose {
-                pitch_deg,
-                yaw_deg,
-                ..result.pose
-            };
-            AngleOfAttack::of(&WorldPose::of(&pose, &self.mount, station), &velocity)
-                .map(|a| a.total_deg)
+            let nose = nose_in_world(&r_ec, pitch_deg, yaw_deg);
+            AngleOfAttack::of(&nose.into(), &velocity).map(|a| a.total_deg)
         };
         let chosen = aoa(result.pose.pitch_deg, result.pose.yaw_deg)?;
         let mirrored = aoa(result.pitch_alt_deg, result.yaw_alt_deg)?;
@@ -313,7 +322,7 @@ impl Position {
     pub fn of(time_s: f64, result: &FrameResult, mount: &Mount, station: &Station) -> Position {
         Position {
             time_s,
-            enu_m: WorldPose::of(&result.pose, mount, station).origin_enu_m,
+            enu_m: origin_in_world(&mount.rotation_camera_to_world(), &result.pose, station),
             range_used: result.range_used,
         }
     }
@@ -343,11 +352,7 @@ pub fn velocity_at<'a>(
         let tau = position.time_s - at_s;
         let basis = Vector3::new(1.0, tau, tau * tau);
         normal += basis * basis.transpose();
-        for (axis, value) in position.enu_m.iter().enumerate() {
-            for i in 0..3 {
-                rhs[(i, axis)] += basis[i] * value;
-            }
-        }
+        rhs += basis * Vector3::from(position.enu_m).transpose();
         if let Some(slot) = first_two.get_mut(count) {
             *slot = Some((tau, Vector3::from(position.enu_m)));
         }
@@ -547,10 +552,14 @@ mod tests {
     #[test]
     fn the_angle_of_attack_by_hand() {
         let velocity = [0.0, 300.0, 0.0];
-        let nose = |az: f64, el: f64| WorldPose {
-            nose_az_deg: az,
-            nose_el_deg: el,
-            origin_enu_m: [0.0; 3],
+        // The unit nose at azimuth `az` (clockwise from north) and elevation `el`, deg.
+        let nose = |az: f64, el: f64| {
+            let (a, e) = (f64::to_radians(az), f64::to_radians(el));
+            [
+                libm::sin(a) * libm::cos(e),
+                libm::cos(a) * libm::cos(e),
+                libm::sin(e),
+            ]
         };
         let up = AngleOfAttack::of(&nose(0.0, 2.0), &velocity).unwrap();
         assert!(
@@ -622,7 +631,7 @@ mod tests {
             let result = at(t);
             let motion = stage.motion(t, &result, mount, &station, &config).unwrap();
             let aoa = motion.state(&result, &station).aoa;
-            let side = motion.side(&result, &station, config.side_margin_deg);
+            let side = motion.side(&result, config.side_margin_deg);
             match k {
                 0 => assert_eq!((aoa, side), (None, None)),
                 _ => {
@@ -631,9 +640,9 @@ mod tests {
                     assert_eq!(side, Some(Side::Chosen));
                     let mut mirrored = result;
                     core::mem::swap(&mut mirrored.pose.yaw_deg, &mut mirrored.yaw_alt_deg);
-                    assert_eq!(motion.side(&mirrored, &station, 1.0), Some(Side::Mirrored));
+                    assert_eq!(motion.side(&mirrored, 1.0), Some(Side::Mirrored));
                     // A margin wider than the candidates' difference: either.
-                    assert_eq!(motion.side(&result, &station, 179.0), Some(Side::Either));
+                    assert_eq!(motion.side(&result, 179.0), Some(Side::Either));
                 }
             }
         }

@@ -309,8 +309,7 @@ enum Row {
 /// Processes one opened clip and writes its results CSV atomically (and the stage masks).
 pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<ClipSummary> {
     let mut pipeline = pipeline_for(clip, job_config(job), &job.lut)?;
-    let station = clip.station();
-    pipeline.set_station(station);
+    pipeline.set_station(clip.station());
     prepare_mask_folders(&job.out_dir, job.save_masks)?;
     let mut summary = ClipSummary {
         clip: clip.dir.clone(),
@@ -331,10 +330,11 @@ pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<Cli
                         row: rows.len(),
                         step: pipeline.last_range_step(),
                         solved: pipeline.last_solved().copied(),
-                        position: row
-                            .mount
-                            .filter(|_| result.status == Status::Ok)
-                            .map(|m| Position::of(row.time_s, &result, &m, &station)),
+                        position: result.world.map(|world| Position {
+                            time_s: row.time_s,
+                            enu_m: world.pose.origin_enu_m,
+                            range_used: result.range_used,
+                        }),
                     });
                     Row::Frame(row.frame, result)
                 }

@@ -30,6 +30,19 @@ pub fn markdown(evaluations: &[&Evaluation]) -> String {
     s
 }
 
+/// One evaluation's cells of a statistics row: median, mean, p90 and the paper's figure (`-`
+/// where a statistic or the paper's figure is missing).
+fn write_stats(s: &mut String, stats: Option<Summary>, paper: Option<f64>) -> std::fmt::Result {
+    write!(
+        s,
+        " {} | {} | {} | {} |",
+        opt(stats.map(|x| x.median), num),
+        opt(stats.map(|x| x.mean), num),
+        opt(stats.map(|x| x.p90), num),
+        opt(paper, num)
+    )
+}
+
 /// One world-frame row's statistics of an evaluation.
 type WorldStat = fn(&Evaluation) -> Option<Summary>;
 
@@ -67,15 +80,7 @@ fn write_pose_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Re
         write!(s, "| {} | {} |", parameter.label(), parameter.unit())?;
         for e in evaluations {
             let p = e.pose.parameters.get(i);
-            let stats = p.and_then(|p| p.stats);
-            write!(
-                s,
-                " {} | {} | {} | {} |",
-                opt(stats.map(|x| x.median), num),
-                opt(stats.map(|x| x.mean), num),
-                opt(stats.map(|x| x.p90), num),
-                opt(p.and_then(|p| p.paper), num)
-            )?;
+            write_stats(s, p.and_then(|p| p.stats), p.and_then(|p| p.paper))?;
         }
         writeln!(s)?;
     }
@@ -84,14 +89,7 @@ fn write_pose_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Re
         "| roll (chosen candidate where it is the better one) | deg/km |"
     )?;
     for e in evaluations {
-        let stats = e.pose.roll;
-        write!(
-            s,
-            " {} | {} | {} | - |",
-            opt(stats.map(|x| x.median), num),
-            opt(stats.map(|x| x.mean), num),
-            opt(stats.map(|x| x.p90), num)
-        )?;
+        write_stats(s, e.pose.roll, None)?;
     }
     write!(s, "\n| frames with a roll | % of poses |")?;
     for e in evaluations {
@@ -131,14 +129,7 @@ fn write_pose_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Re
         for (label, unit, stats) in world_rows {
             write!(s, "\n| {label} | {unit} |")?;
             for e in evaluations {
-                let stats = stats(e);
-                write!(
-                    s,
-                    " {} | {} | {} | - |",
-                    opt(stats.map(|x| x.median), num),
-                    opt(stats.map(|x| x.mean), num),
-                    opt(stats.map(|x| x.p90), num)
-                )?;
+                write_stats(s, stats(e), None)?;
             }
         }
     }

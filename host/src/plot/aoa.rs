@@ -4,7 +4,7 @@
 //! (`gt_aoa_*`).
 
 use super::font::FAMILY;
-use super::panel::{ESTIMATE, Mark, Series, TRUTH, draw_panel, span};
+use super::panel::{ESTIMATE, Mark, Series, TRUTH, draw_legend, draw_panel, legend_mark, span};
 use crate::clip::{Clip, ResultRow, TrueAngleOfAttack};
 use plotters::prelude::*;
 use std::collections::HashMap;
@@ -118,7 +118,7 @@ fn damping(
             TRUTH.stroke_width(2),
         ))?
         .label("truth")
-        .legend(|(x, y)| Circle::new((x + 8, y), 4, TRUTH.filled()));
+        .legend(legend_mark(TRUTH));
     chart
         .draw_series(
             estimate
@@ -126,12 +126,6 @@ fn damping(
                 .map(|&p| Circle::new(p, 3, ESTIMATE.filled())),
         )?
         .label("estimate")
-        .legend(|(x, y)| Circle::new((x + 8, y), 4, ESTIMATE.filled()));
-    chart
-        .configure_series_labels()
-        .label_font((FAMILY, 14))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
-    Ok(())
+        .legend(legend_mark(ESTIMATE));
+    draw_legend(&mut chart)
 }

@@ -2,6 +2,7 @@
 
 use super::font::FAMILY;
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 /// How a series is drawn.
@@ -109,10 +110,22 @@ pub fn draw_panel(
                     .map(|&p| Cross::new(p, 3, color.stroke_width(1))),
             )?,
         };
-        drawn
-            .label(s.label)
-            .legend(move |(x, y)| Circle::new((x + 8, y), 4, color.filled()));
+        drawn.label(s.label).legend(legend_mark(color));
     }
+    draw_legend(&mut chart)
+}
+
+/// A chart with f64 axes on a bitmap, as the figures' panels are.
+pub type Chart<'a> =
+    ChartContext<'a, BitMapBackend<'a>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// A series' mark in the legend: a dot of its colour.
+pub fn legend_mark(color: RGBColor) -> impl Fn((i32, i32)) -> Circle<(i32, i32), i32> {
+    move |(x, y)| Circle::new((x + 8, y), 4, color.filled())
+}
+
+/// Draws the legend of `chart`'s labelled series, in the panels' style.
+pub fn draw_legend(chart: &mut Chart<'_>) -> anyhow::Result<()> {
     chart
         .configure_series_labels()
         .label_font((FAMILY, 14))

@@ -2,7 +2,6 @@
 //! depend on the thread count), and writes the `imade-clip/1` folder with its ground truth.
 
 use super::camera::Intrinsics;
-use super::camera::azimuth_elevation;
 use super::clutter::{ClutterLayout, FrameClutter, RidgeLine};
 use super::math::Vec3;
 use super::model::ProjectileModel;
@@ -20,7 +19,7 @@ use crate::clip::{
     StationMeta, TrueAngleOfAttack, write_atomically,
 };
 use anyhow::Context;
-use imade_core::world::{AngleOfAttack, Mount, WorldPose};
+use imade_core::world::{AngleOfAttack, Mount};
 use std::path::Path;
 
 /// The name of the one station a simulated clip is seen from.
@@ -287,15 +286,8 @@ impl Simulation {
 /// The true angle of attack of a planned frame: the body's x axis against its velocity, both
 /// in W (the range's East-North-Up frame), split as the core splits it.
 fn true_angle_of_attack(plan: &FramePlan) -> Option<TrueAngleOfAttack> {
-    let nose = plan.body_axes_world.col(0);
-    let (az, el) = azimuth_elevation(nose);
-    let pose = WorldPose {
-        nose_az_deg: az.to_degrees(),
-        nose_el_deg: el.to_degrees(),
-        origin_enu_m: [plan.body_world.x, plan.body_world.y, plan.body_world.z],
-    };
-    let v = plan.velocity_world;
-    AngleOfAttack::of(&pose, &[v.x, v.y, v.z]).map(|a| TrueAngleOfAttack {
+    let (n, v) = (plan.body_axes_world.col(0), plan.velocity_world);
+    AngleOfAttack::of(&[n.x, n.y, n.z], &[v.x, v.y, v.z]).map(|a| TrueAngleOfAttack {
         total_deg: a.total_deg,
         up_deg: a.up_deg,
         right_deg: a.right_deg,
