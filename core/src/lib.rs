@@ -46,6 +46,7 @@ pub mod results;
 pub mod segment;
 #[cfg(feature = "shape-guided")]
 pub mod shape_guided;
+pub mod stations;
 pub mod table_match;
 pub mod temporal;
 #[cfg(test)]

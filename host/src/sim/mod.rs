@@ -114,21 +114,30 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         .out
         .as_deref()
         .context("--out is required to write a clip")?;
-    prepare_output(out, args.force)?;
     let threads = args.threads.unwrap_or_else(|| {
         std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
     });
-    let started = std::time::Instant::now();
-    let simulation = Simulation::new(scenario)?;
-    let summary = simulation.write_clip(out, threads)?;
-    let seconds = started.elapsed().as_secs_f64();
-    println!("wrote {}", out.display());
-    println!("{summary}");
-    println!(
-        "render speed        {:.1} frames/s ({} threads, {seconds:.1} s)",
-        summary.frames as f64 / seconds,
-        threads
-    );
+    // A several-station scenario writes one clip per station, `OUT/<station id>/`.
+    let several = !scenario.stations.is_empty();
+    for station in scenario.station_scenarios() {
+        let clip_dir = if several {
+            out.join(&station.camera.station_id)
+        } else {
+            out.to_path_buf()
+        };
+        prepare_output(&clip_dir, args.force)?;
+        let started = std::time::Instant::now();
+        let simulation = Simulation::new(station)?;
+        let summary = simulation.write_clip(&clip_dir, threads)?;
+        let seconds = started.elapsed().as_secs_f64();
+        println!("wrote {}", clip_dir.display());
+        println!("{summary}");
+        println!(
+            "render speed        {:.1} frames/s ({} threads, {seconds:.1} s)",
+            summary.frames as f64 / seconds,
+            threads
+        );
+    }
     Ok(())
 }
 

@@ -6,12 +6,12 @@
 
 use super::scenario::{
     AttitudeConfig, CameraConfig, ClipConfig, FilamentsConfig, NearTerrainConfig, PlumeConfig,
-    ProjectileConfig, RandomizeConfig, Scenario, SceneConfig, SecondObjectConfig, SensorConfig,
-    TrajectoryConfig, Weather,
+    ProjectileConfig, RandomizeConfig, RangeSensor, Scenario, SceneConfig, SecondObjectConfig,
+    SensorConfig, StationConfig, TrajectoryConfig, Weather,
 };
 
 /// Every preset: name and one line on what it is.
-pub const PRESETS: [(&str, &str); 9] = [
+pub const PRESETS: [(&str, &str); 10] = [
     (
         "table1-train",
         "Table 1 training clip: 40 deg launch, 17:00, cloudy, seed 539662031, 175 frames",
@@ -50,6 +50,11 @@ pub const PRESETS: [(&str, &str); 9] = [
         "clutter-random",
         "every clutter range at once, both polarities of body and plume: a different look per seed",
     ),
+    (
+        "two-stations",
+        "the Table 1 flight seen from two stations 2.5 km apart, no range sensor, frames half a \
+         frame apart: one clip per station for `imade fuse`",
+    ),
 ];
 
 /// The preset called `name`.
@@ -64,6 +69,7 @@ pub fn preset(name: &str) -> Option<Scenario> {
         "clutter-faint-plume" => clutter_faint_plume(20240904),
         "clutter-terrain" => clutter_terrain(20240905),
         "clutter-random" => clutter_random(20240906),
+        "two-stations" => two_stations(),
         _ => return None,
     };
     Some(scenario)
@@ -99,7 +105,33 @@ fn table1(launch_angle_deg: f64, time_of_day: &str, seed: u64) -> Scenario {
         near_terrain: NearTerrainConfig::default(),
         second_object: SecondObjectConfig::default(),
         randomize: RandomizeConfig::default(),
+        stations: Vec::new(),
     }
+}
+
+/// The Table 1 flight from two stations: A, the Table 1 camera west of the line of fire, and
+/// B, 1.3 km east of it and 1.4 km downrange, whose line of sight meets A's at about 110 deg.
+/// No range sensor; B's frames are taken half a camera frame after A's.
+fn two_stations() -> Scenario {
+    let mut s = table1(39.0, "17:15", 20240907);
+    s.description = "The Table 1 flight from two stations, no range sensor".into();
+    s.clip.frames = 40;
+    s.clip.keep_every = 4;
+    s.sensor.range_sensor = RangeSensor::Unknown;
+    let a = s.camera.position_m;
+    s.stations = vec![
+        StationConfig {
+            id: "A".into(),
+            position_m: a,
+            time_offset_s: 0.0,
+        },
+        StationConfig {
+            id: "B".into(),
+            position_m: [1300.0, 1400.0, 2.0],
+            time_offset_s: 0.5 / s.clip.frame_rate_hz,
+        },
+    ];
+    s
 }
 
 fn clear_sky() -> Scenario {

@@ -50,6 +50,25 @@ pub struct Scenario {
     /// Ranges the physics is drawn from, per clip, from the seed (nothing drawn by default).
     #[serde(default, skip_serializing_if = "RandomizeConfig::is_off")]
     pub randomize: RandomizeConfig,
+    /// Several stations seeing the one flight, each rendered as its own clip (none: the one
+    /// camera of `[camera]`, station `camera.station_id`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stations: Vec<StationConfig>,
+}
+
+/// One station of a several-station scenario: a camera of `[camera]`'s intrinsics and tracker
+/// placed elsewhere, on the same clock.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StationConfig {
+    /// The station's name: its clip's folder and `clip.json`'s `station.id`.
+    pub id: String,
+    /// Optical centre in W, m.
+    pub position_m: [f64; 3],
+    /// How much later than `clip.start_time_s` its first frame is taken, s, in [0, 1): stations
+    /// whose frames do not coincide.
+    #[serde(default)]
+    pub time_offset_s: f64,
 }
 
 /// Which way a body or a plume differs from what is behind it.
@@ -235,6 +254,16 @@ pub struct CameraConfig {
     pub pointing_period_s: f64,
     /// Largest offset of the chip centre from the projected body origin (tracker jitter), px.
     pub tracker_jitter_px: f64,
+    /// The station's name in `clip.json` (`station.id`).
+    #[serde(skip_serializing_if = "is_default_station")]
+    pub station_id: String,
+}
+
+/// The station a scenario without `[[stations]]` is seen from.
+pub const DEFAULT_STATION_ID: &str = "A";
+
+fn is_default_station(id: &str) -> bool {
+    id == DEFAULT_STATION_ID
 }
 
 impl Default for CameraConfig {
@@ -252,6 +281,7 @@ impl Default for CameraConfig {
             pointing_error_px: 250.0,
             pointing_period_s: 7.0,
             tracker_jitter_px: 30.0,
+            station_id: DEFAULT_STATION_ID.into(),
         }
     }
 }
@@ -634,6 +664,29 @@ impl Scenario {
         Ok(scenario)
     }
 
+    /// The scenario of each station of `[[stations]]`, in order, with its id: `[camera]` moved
+    /// to the station, its first frame later by its offset, and the seed of the `i`-th station
+    /// `seed + i` (each mount its own pointing error and jitter, each sensor its own noise). One
+    /// scenario, the given one, where there are no stations.
+    pub fn station_scenarios(&self) -> Vec<Scenario> {
+        if self.stations.is_empty() {
+            return vec![self.clone()];
+        }
+        self.stations
+            .iter()
+            .zip(0u64..)
+            .map(|(station, i)| {
+                let mut s = self.clone();
+                s.stations.clear();
+                s.seed = self.seed.wrapping_add(i);
+                s.camera.position_m = station.position_m;
+                s.camera.station_id.clone_from(&station.id);
+                s.clip.start_time_s += station.time_offset_s;
+                s
+            })
+            .collect()
+    }
+
     /// The scenario as TOML text.
     pub fn to_toml(&self) -> anyhow::Result<String> {
         toml::to_string(self).context("serializing the scenario")
@@ -694,6 +747,29 @@ impl Scenario {
         );
         let k = &self.camera;
         ensure!(finite3(&k.position_m), "camera.position_m must be finite");
+        ensure!(
+            is_station_name(&k.station_id),
+            "camera.station_id must be 1-32 letters, digits, '-' or '_'"
+        );
+        for (i, st) in self.stations.iter().enumerate() {
+            ensure!(
+                is_station_name(&st.id),
+                "stations[{i}].id must be 1-32 letters, digits, '-' or '_'"
+            );
+            ensure!(
+                self.stations[..i].iter().all(|other| other.id != st.id),
+                "stations[{i}].id {:?} is given twice",
+                st.id
+            );
+            ensure!(
+                finite3(&st.position_m),
+                "stations[{i}].position_m must be finite"
+            );
+            ensure!(
+                (0.0..1.0).contains(&st.time_offset_s),
+                "stations[{i}].time_offset_s must be in [0, 1)"
+            );
+        }
         ensure!(
             positive(k.fx) && positive(k.fy) && k.cx.is_finite() && k.cy.is_finite(),
             "camera intrinsics must be finite with fx, fy > 0"
@@ -925,6 +1001,14 @@ fn range([lo, hi]: [f64; 2], min: f64, max: f64, name: &str) -> anyhow::Result<(
         "{name} must be [lo, hi] with {min} <= lo <= hi <= {max}"
     );
     Ok(())
+}
+
+/// A station name that is also a safe folder name.
+fn is_station_name(id: &str) -> bool {
+    (1..=32).contains(&id.len())
+        && id
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
 }
 
 fn positive(v: f64) -> bool {

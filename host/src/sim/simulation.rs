@@ -22,9 +22,6 @@ use anyhow::Context;
 use imade_core::world::{AngleOfAttack, Mount};
 use std::path::Path;
 
-/// The name of the one station a simulated clip is seen from.
-const STATION_ID: &str = "A";
-
 /// A scenario made ready to render.
 pub struct Simulation {
     /// The scenario as given (written beside the clip).
@@ -218,7 +215,7 @@ impl Simulation {
             frame_rate_hz: self.resolved.clip.frame_rate_hz,
             // The simulator's world frame W is the range's East-North-Up frame.
             station: Some(StationMeta {
-                id: STATION_ID.into(),
+                id: self.scenario.camera.station_id.clone(),
                 enu_m: self.scenario.camera.position_m,
             }),
         };
