@@ -17,6 +17,7 @@ pub mod clip;
 pub mod demo;
 pub mod eval;
 pub mod exit;
+pub mod fuse;
 pub mod lut;
 pub mod mesh_model;
 pub mod model;

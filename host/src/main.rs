@@ -29,6 +29,9 @@ enum Command {
     Lut(imade_host::model::command::ModelArgs),
     /// Render a deterministic simulated clip (imade-clip/1) with ground truth.
     Simulate(imade_host::sim::SimulateArgs),
+    /// Fuse one flight's clips from two or more stations: the nose and position where their
+    /// views meet.
+    Fuse(imade_host::fuse::FuseArgs),
     /// Pack a clip for the firmware under QEMU (imade-pack/1, see firmware-sim/).
     Pack(imade_host::pack::PackArgs),
 }
@@ -42,6 +45,7 @@ fn main() -> std::process::ExitCode {
         Command::Plot(args) => imade_host::plot::run(&args),
         Command::Model(args) | Command::Lut(args) => imade_host::model::command::run(&args),
         Command::Simulate(args) => imade_host::sim::run(&args),
+        Command::Fuse(args) => imade_host::fuse::run(&args),
         Command::Pack(args) => imade_host::pack::run(&args),
     };
     if let Err(error) = &outcome {

@@ -76,7 +76,11 @@ pub fn smoothed_results(pipeline: &Pipeline, recorded: &[Recorded]) -> Vec<(usiz
 
 /// The velocity at `time_s` from the recorded `positions` around it, before and after: the
 /// [`FLIGHT_SAMPLES`] nearest in time within half the live fit's span either side.
-fn centred_velocity(positions: &[Position], time_s: f64, config: &WorldConfig) -> Option<[f64; 3]> {
+pub(crate) fn centred_velocity(
+    positions: &[Position],
+    time_s: f64,
+    config: &WorldConfig,
+) -> Option<[f64; 3]> {
     let mut near: Vec<&Position> = positions
         .iter()
         .filter(|p| (p.time_s - time_s).abs() <= 0.5 * config.max_span_s)
