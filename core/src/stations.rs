@@ -10,14 +10,18 @@
 //! the same meet in the axis, so the nose is the unit vector nearest to lying in every plane:
 //! the eigenvector of `sum m mᵀ / sd²` of least eigenvalue, on the side to which every station
 //! sees the nose point in its image. No yaw candidate and no range enter; the yaw ambiguity is
-//! gone. The body origin is the point nearest to every line of sight (weighted least squares),
-//! so the stations fix it without a range sensor too.
+//! gone. Each station's own tilt is then taken in too: the candidate nearer that nose is the
+//! one the stations agree on, and one weighted least-squares step across the nose weighs every
+//! plane by its sigma and every agreed candidate by its tilt's, so a station that sees the tilt
+//! well still counts where the planes meet at a narrow angle. The body origin is the point
+//! nearest to every line of sight (weighted least squares), so the stations fix it without a
+//! range sensor too.
 //!
 //! The arithmetic is `f64`, on the host and on a co-processor alike.
 
 use crate::pose::nose_direction;
 use crate::world::{Mount, Station};
-use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+use nalgebra::{Matrix2, Matrix3, Matrix3x2, SymmetricEigen, Vector2, Vector3};
 
 /// What one station saw of the body at one instant, in E.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -28,6 +32,11 @@ pub struct StationSight {
     pub sight: Vector3<f64>,
     /// Unit normal of the axis plane, `sight x nose`, in E.
     pub axis_normal: Vector3<f64>,
+    /// The two yaw candidates' unit noses in E (both in the axis plane, mirror images across
+    /// the line of sight's normal plane).
+    pub candidates: [Vector3<f64>; 2],
+    /// One sigma of a candidate's tilt within the axis plane, rad.
+    pub tilt_sd_rad: f64,
     /// The station's range to the body origin, m (its own estimate: it weights the line of
     /// sight, whose sideways error grows with it).
     pub range_m: f64,
@@ -35,6 +44,17 @@ pub struct StationSight {
     pub plane_sd_rad: f64,
     /// One sigma of the line of sight's direction, rad.
     pub sight_sd_rad: f64,
+}
+
+/// One sigma of each part of a station's sight, rad.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SightSd {
+    /// The axis plane's normal (the axis's angle in the image).
+    pub plane: f64,
+    /// The tilt within the axis plane.
+    pub tilt: f64,
+    /// The line of sight.
+    pub sight: f64,
 }
 
 /// Why the stations' sights cannot be combined.
@@ -94,16 +114,16 @@ pub struct FusedSight {
 impl StationSight {
     /// A station's sight from its frame's pose in its camera frame C: the body origin
     /// `origin_c_m` (m) and either yaw candidate's `pitch_deg` and `yaw_deg`, with the camera
-    /// at `station` pointed as `mount`. None where the axis lies along the line of sight (no
-    /// axis plane) or the origin is not in front of the camera.
+    /// at `station` pointed as `mount`; `sd_rad` are the sigmas of the axis plane, the tilt and
+    /// the line of sight. None where the axis lies along the line of sight (no axis plane) or
+    /// the origin is not in front of the camera.
     pub fn from_camera(
         station: &Station,
         mount: &Mount,
         origin_c_m: [f64; 3],
         pitch_deg: f64,
         yaw_deg: f64,
-        plane_sd_rad: f64,
-        sight_sd_rad: f64,
+        sd_rad: SightSd,
     ) -> Option<StationSight> {
         let r_ec = mount.rotation_camera_to_world();
         let origin_c = Vector3::from(origin_c_m);
@@ -119,9 +139,11 @@ impl StationSight {
             station_enu_m: Vector3::from(station.enu_m),
             sight,
             axis_normal: normal / length,
+            candidates: [nose, mirror(&nose, &sight)],
+            tilt_sd_rad: sd_rad.tilt,
             range_m,
-            plane_sd_rad,
-            sight_sd_rad,
+            plane_sd_rad: sd_rad.plane,
+            sight_sd_rad: sd_rad.sight,
         })
     }
 
@@ -135,15 +157,31 @@ impl StationSight {
             return None;
         }
         let lerp = |a: f64, b: f64| a + (b - a) * fraction;
+        // The later frame's candidates in the order of this one's (its choice may differ).
+        let [c0, c1] = later.candidates;
+        let later_candidates = if self.candidates[0].dot(&c0) >= self.candidates[0].dot(&c1) {
+            [c0, c1]
+        } else {
+            [c1, c0]
+        };
         let unit = |a: &Vector3<f64>, b: &Vector3<f64>| (a + (b - a) * fraction).normalize();
         let sight = unit(&(self.sight * self.range_m), &(later.sight * later.range_m));
         // The normal kept at right angles to the sight it goes with.
         let normal = unit(&self.axis_normal, &later.axis_normal);
         let normal = (normal - sight * normal.dot(&sight)).normalize();
+        let in_plane = |a: &Vector3<f64>, b: &Vector3<f64>| {
+            let n = unit(a, b);
+            (n - normal * n.dot(&normal)).normalize()
+        };
         Some(StationSight {
             station_enu_m: self.station_enu_m,
             sight,
             axis_normal: normal,
+            candidates: [
+                in_plane(&self.candidates[0], &later_candidates[0]),
+                in_plane(&self.candidates[1], &later_candidates[1]),
+            ],
+            tilt_sd_rad: lerp(self.tilt_sd_rad, later.tilt_sd_rad),
             range_m: lerp(self.range_m, later.range_m),
             plane_sd_rad: lerp(self.plane_sd_rad, later.plane_sd_rad),
             sight_sd_rad: lerp(self.sight_sd_rad, later.sight_sd_rad),
@@ -160,10 +198,16 @@ impl StationSight {
         let unit = |v: &Vector3<f64>| (v.norm() - 1.0).abs() < 1e-6;
         unit(&self.sight)
             && unit(&self.axis_normal)
+            && self.candidates.iter().all(unit)
             && self.station_enu_m.iter().all(|x| x.is_finite())
-            && [self.range_m, self.plane_sd_rad, self.sight_sd_rad]
-                .iter()
-                .all(|&x| x.is_finite() && x > 0.0)
+            && [
+                self.range_m,
+                self.plane_sd_rad,
+                self.tilt_sd_rad,
+                self.sight_sd_rad,
+            ]
+            .iter()
+            .all(|&x| x.is_finite() && x > 0.0)
     }
 }
 
@@ -187,10 +231,11 @@ pub fn fuse(sights: &[StationSight], config: &FusionConfig) -> Result<FusedSight
     if widest_sight < config.min_sight_angle_deg {
         return Err(FusionError::SameLine);
     }
-    let (nose, nose_cov, plane_angle_deg) = nose_of(sights);
+    let (planes_nose, plane_angle_deg) = nose_of_planes(sights);
     if plane_angle_deg < config.min_plane_angle_deg {
         return Err(FusionError::SamePlane);
     }
+    let (nose, nose_cov) = nose_with_tilts(sights, &planes_nose);
     let (origin_enu_m, origin_cov) = origin_of(sights).ok_or(FusionError::SameLine)?;
     Ok(FusedSight {
         nose,
@@ -201,8 +246,8 @@ pub fn fuse(sights: &[StationSight], config: &FusionConfig) -> Result<FusedSight
     })
 }
 
-/// The nose nearest to every axis plane, its covariance, and the planes' effective angle.
-fn nose_of(sights: &[StationSight]) -> (Vector3<f64>, Matrix3<f64>, f64) {
+/// The nose nearest to every axis plane, and the planes' effective angle, deg.
+fn nose_of_planes(sights: &[StationSight]) -> (Vector3<f64>, f64) {
     let scatter: Matrix3<f64> = sights
         .iter()
         .map(|s| s.axis_normal * s.axis_normal.transpose() / (s.plane_sd_rad * s.plane_sd_rad))
@@ -212,8 +257,7 @@ fn nose_of(sights: &[StationSight]) -> (Vector3<f64>, Matrix3<f64>, f64) {
     order.sort_by(|&a, &b| eigen.eigenvalues[a].total_cmp(&eigen.eigenvalues[b]));
     let [least, middle, most] = order;
     let lambda = |i: usize| eigen.eigenvalues[i];
-    let axis = |i: usize| eigen.eigenvectors.column(i).into_owned();
-    let mut nose = axis(least);
+    let mut nose = eigen.eigenvectors.column(least).into_owned();
     // On the side each station sees the nose point to, weighted by how well it sees it.
     let towards: f64 = sights
         .iter()
@@ -224,12 +268,50 @@ fn nose_of(sights: &[StationSight]) -> (Vector3<f64>, Matrix3<f64>, f64) {
     }
     // Two planes whose normals meet at phi give eigenvalues w (1 -+ cos phi): their ratio is
     // tan²(phi / 2).
-    let (across_weak, across_strong) =
-        (lambda(middle) - lambda(least), lambda(most) - lambda(least));
-    let plane_angle_deg = 2.0 * libm::atan(libm::sqrt(across_weak / across_strong)).to_degrees();
-    let cov = axis(middle) * axis(middle).transpose() / across_weak
-        + axis(most) * axis(most).transpose() / across_strong;
-    (nose, cov, plane_angle_deg)
+    let ratio = (lambda(middle) - lambda(least)) / (lambda(most) - lambda(least));
+    (
+        nose,
+        2.0 * libm::atan(libm::sqrt(ratio.max(0.0))).to_degrees(),
+    )
+}
+
+/// The nose from the planes' `start`, refined by one weighted least-squares step across it over
+/// every plane and every station's candidate nearer `start` (its tilt), and its covariance in E.
+fn nose_with_tilts(sights: &[StationSight], start: &Vector3<f64>) -> (Vector3<f64>, Matrix3<f64>) {
+    // Two directions across the start.
+    let helper = if start.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let e1 = start.cross(&helper).normalize();
+    let e2 = start.cross(&e1);
+    let mut normal = Matrix2::<f64>::zeros();
+    let mut rhs = Vector2::<f64>::zeros();
+    let mut add = |direction: &Vector3<f64>, residual: f64, sd: f64| {
+        let row = Vector2::new(direction.dot(&e1), direction.dot(&e2)) / sd;
+        normal += row * row.transpose();
+        rhs -= row * (residual / sd);
+    };
+    for s in sights {
+        add(&s.axis_normal, s.axis_normal.dot(start), s.plane_sd_rad);
+        let agreed = if s.candidates[0].dot(start) >= s.candidates[1].dot(start) {
+            s.candidates[0]
+        } else {
+            s.candidates[1]
+        };
+        let tilt = s.axis_normal.cross(&agreed);
+        add(&tilt, tilt.dot(&(start - agreed)), s.tilt_sd_rad);
+    }
+    let basis = Matrix3x2::from_columns(&[e1, e2]);
+    match normal.try_inverse() {
+        Some(cov) => {
+            let step = cov * rhs;
+            let nose = (start + basis * step).normalize();
+            (nose, basis * cov * basis.transpose())
+        }
+        None => (*start, Matrix3::zeros()),
+    }
 }
 
 /// The point nearest every line of sight, each weighted by its sideways sigma at its range,
@@ -246,6 +328,11 @@ fn origin_of(sights: &[StationSight]) -> Option<(Vector3<f64>, Matrix3<f64>)> {
     }
     let cov = normal.try_inverse()?;
     Some((cov * rhs, cov))
+}
+
+/// `nose` mirrored across the plane normal to the unit `sight`: the other yaw candidate.
+fn mirror(nose: &Vector3<f64>, sight: &Vector3<f64>) -> Vector3<f64> {
+    nose - sight * 2.0 * nose.dot(sight)
 }
 
 /// The angle between two unit vectors, deg.
@@ -266,8 +353,11 @@ mod tests {
             station_enu_m: station,
             sight,
             axis_normal: sight.cross(&nose).normalize(),
+            candidates: [nose, mirror(&nose, &sight)],
             range_m: d.norm(),
             plane_sd_rad: 1e-4,
+            // The tilt a thousand times worse than the plane: the planes decide.
+            tilt_sd_rad: 1e-1,
             sight_sd_rad: 1e-5,
         }
     }
@@ -286,8 +376,7 @@ mod tests {
         assert!((fused.origin_enu_m - origin).norm() < 1e-6);
         // Either yaw candidate gives the same axis plane: the mirrored nose (about the image
         // plane, across A's sight) fuses to the same answer.
-        let mirrored = nose - a.sight * 2.0 * nose.dot(&a.sight);
-        let a_mirrored = sight([0.0, 0.0, 0.0], origin, mirrored);
+        let a_mirrored = sight([0.0, 0.0, 0.0], origin, mirror(&nose, &a.sight));
         let again = fuse(&[a_mirrored, b], &FusionConfig::DEFAULT).unwrap();
         assert!((again.nose - nose).norm() < 1e-9);
     }
@@ -317,7 +406,39 @@ mod tests {
         let along_diff = (a.axis_normal - b.axis_normal).normalize();
         let var = (along_diff.transpose() * fused.nose_cov * along_diff)[0];
         let expected = sd / (2.0_f64.sqrt() * half.sin());
-        assert!((var.sqrt() - expected).abs() < 1e-9);
+        assert!((var.sqrt() / expected - 1.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn a_station_that_sees_the_tilt_well_counts_where_the_planes_meet_narrowly() {
+        let origin = Vector3::new(0.0, 1000.0, 0.0);
+        let nose = Vector3::new(0.3, 0.2, 1.0).normalize();
+        let a = sight([0.0, 0.0, 0.0], origin, nose);
+        let b = sight([-200.0, 0.0, 0.0], origin, nose);
+        // Each plane off by its sigma (turned about its line of sight); B's candidate exact and
+        // its tilt sharp.
+        let turn = |s: &StationSight, angle: f64| {
+            let r = nalgebra::Rotation3::from_axis_angle(
+                &nalgebra::Unit::new_normalize(s.sight),
+                angle,
+            );
+            StationSight {
+                axis_normal: r * s.axis_normal,
+                candidates: [r * s.candidates[0], r * s.candidates[1]],
+                ..*s
+            }
+        };
+        let (a, b) = (turn(&a, 1e-4), turn(&b, -1e-4));
+        let planes_only = fuse(&[a, b], &FusionConfig::DEFAULT).unwrap();
+        let b_sharp = StationSight {
+            tilt_sd_rad: 1e-5,
+            candidates: sight([-200.0, 0.0, 0.0], origin, nose).candidates,
+            ..b
+        };
+        let with_tilt = fuse(&[a, b_sharp], &FusionConfig::DEFAULT).unwrap();
+        let error = |f: &FusedSight| libm::acos(f.nose.dot(&nose).min(1.0));
+        assert!(error(&planes_only) > 5e-4, "{}", error(&planes_only));
+        assert!(error(&with_tilt) < 1.5e-4, "{}", error(&with_tilt));
     }
 
     #[test]
@@ -378,17 +499,20 @@ mod tests {
             enu_m: [10.0, 20.0, 30.0],
         };
         // Nose along +X_C (east): pitch 0, yaw 90.
+        let sd = SightSd {
+            plane: 1e-4,
+            tilt: 1e-3,
+            sight: 1e-5,
+        };
         let s =
-            StationSight::from_camera(&station, &mount, [0.0, 0.0, 1000.0], 0.0, 90.0, 1e-4, 1e-5)
-                .unwrap();
+            StationSight::from_camera(&station, &mount, [0.0, 0.0, 1000.0], 0.0, 90.0, sd).unwrap();
         assert!((s.sight - Vector3::new(0.0, 1.0, 0.0)).norm() < 1e-12);
         // north x east = down.
         assert!((s.axis_normal - Vector3::new(0.0, 0.0, -1.0)).norm() < 1e-6);
         assert!((s.range_m - 1000.0).abs() < 1e-9);
         // The nose along the line of sight has no axis plane.
         assert!(
-            StationSight::from_camera(&station, &mount, [0.0, 0.0, 1000.0], 0.0, 0.0, 1e-4, 1e-5)
-                .is_none()
+            StationSight::from_camera(&station, &mount, [0.0, 0.0, 1000.0], 0.0, 0.0, sd).is_none()
         );
     }
 }

@@ -17,7 +17,7 @@ use crate::smooth::centred_velocity;
 use anyhow::{Context, bail, ensure};
 use imade_core::pose::{Pose, attitude_of};
 use imade_core::results::{HEADER, WORLD_HEADER, write_row, write_world_columns};
-use imade_core::stations::{FusedSight, FusionConfig, FusionError, StationSight, fuse};
+use imade_core::stations::{FusedSight, FusionConfig, FusionError, SightSd, StationSight, fuse};
 use imade_core::world::{AngleOfAttack, Position, Station, WorldConfig, WorldPose, WorldState};
 use imade_core::{FrameResult, Status};
 use nalgebra::{Matrix3, Vector3};
@@ -50,8 +50,12 @@ pub struct FuseArgs {
 
 /// One sigma of a station's line of sight to the body origin, in pixels of its focal length.
 const SIGHT_SD_PX: f64 = 0.5;
-/// Floor of the axis plane's sigma, deg (the station's pitch sigma stands for it).
-const MIN_PLANE_SD_DEG: f64 = 0.01;
+/// One sigma of each end of the body's axis across it in the image, px: the axis plane's
+/// sigma is sqrt 2 of it over the silhouette's length (the grey-level fit's axis, from the
+/// whole body, is off by 0.01-0.1 deg at 65-130 px on the two-stations preset).
+const AXIS_END_SD_PX: f64 = 0.1;
+/// Floor of a station's attitude sigmas, deg.
+const MIN_SD_DEG: f64 = 0.01;
 /// Frames this close in time are taken as one, s.
 const SAME_TIME_S: f64 = 1e-6;
 /// The fused results' own column, after the world frame's.
@@ -108,7 +112,7 @@ pub fn run(args: &FuseArgs) -> anyhow::Result<()> {
     let runs: Vec<StationRun> = clips
         .iter()
         .zip(&ids)
-        .map(|(clip, id)| station_run(clip, id, &args.out.join(id).join("results.csv")))
+        .map(|(clip, id)| station_run(clip, id, &args.lut, &args.out.join(id).join("results.csv")))
         .collect::<anyhow::Result<_>>()?;
     check_clocks(&runs)?;
     let reference_results = args.out.join(&ids[0]).join("results.csv");
@@ -175,7 +179,7 @@ fn station_id(clip: &Clip) -> String {
 }
 
 /// A station's frames with their sights, from its clip and the results its run wrote.
-fn station_run(clip: &Clip, id: &str, results: &Path) -> anyhow::Result<StationRun> {
+fn station_run(clip: &Clip, id: &str, lut: &str, results: &Path) -> anyhow::Result<StationRun> {
     let rows = read_results(results)?;
     ensure!(
         rows.len() == clip.frames.len(),
@@ -185,7 +189,10 @@ fn station_run(clip: &Clip, id: &str, results: &Path) -> anyhow::Result<StationR
         clip.frames.len()
     );
     let station = clip.station();
-    let sight_sd_rad = SIGHT_SD_PX / clip.meta.camera.fx;
+    let optics = Optics {
+        fx: clip.meta.camera.fx,
+        length_m: f64::from(clip.model(lut)?.length_m),
+    };
     let frames = clip
         .frames
         .iter()
@@ -196,7 +203,7 @@ fn station_run(clip: &Clip, id: &str, results: &Path) -> anyhow::Result<StationR
                 time_s: frame.time_s,
                 sight: row
                     .is_ok()
-                    .then(|| sight_of(frame, row, &station, sight_sd_rad))
+                    .then(|| sight_of(frame, row, &station, &optics))
                     .flatten(),
             })
         })
@@ -208,24 +215,45 @@ fn station_run(clip: &Clip, id: &str, results: &Path) -> anyhow::Result<StationR
     })
 }
 
-/// The sight of an ok frame with the mount's pointing; the station's pitch sigma stands for
-/// the axis plane's.
+/// What sizes a station's sight sigmas: its focal length, px, and the body's length, m.
+struct Optics {
+    fx: f64,
+    length_m: f64,
+}
+
+/// The sight of an ok frame with the mount's pointing: the axis plane's sigma from the
+/// silhouette's length in the image ([`AXIS_END_SD_PX`]), the tilt's from the station's yaw
+/// sigma (times cos pitch: the nose's move), the line of sight's [`SIGHT_SD_PX`].
 fn sight_of(
     frame: &FrameRow,
     row: &ResultRow,
     station: &Station,
-    sight_sd_rad: f64,
+    optics: &Optics,
 ) -> Option<StationSight> {
-    let plane_sd_deg = row.pitch_sd_deg.unwrap_or(0.0).max(MIN_PLANE_SD_DEG);
-    StationSight::from_camera(
+    let (pitch_deg, yaw_deg) = (row.pitch_deg?, row.yaw_deg?);
+    let origin_c = [row.tx_m?, row.ty_m?, row.tz_m?];
+    let min_sd = MIN_SD_DEG.to_radians();
+    let exact = StationSight::from_camera(
         station,
         frame.mount.as_ref()?,
-        [row.tx_m?, row.ty_m?, row.tz_m?],
-        row.pitch_deg?,
-        row.yaw_deg?,
-        plane_sd_deg.to_radians(),
-        sight_sd_rad,
-    )
+        origin_c,
+        pitch_deg,
+        yaw_deg,
+        SightSd {
+            plane: min_sd,
+            tilt: min_sd,
+            sight: SIGHT_SD_PX / optics.fx,
+        },
+    )?;
+    // The axis's length across the line of sight, px.
+    let across = exact.candidates[0].cross(&exact.sight).norm();
+    let length_px = optics.length_m * optics.fx * across / exact.range_m;
+    let cos_pitch = pitch_deg.to_radians().cos();
+    Some(StationSight {
+        plane_sd_rad: (std::f64::consts::SQRT_2 * AXIS_END_SD_PX / length_px).max(min_sd),
+        tilt_sd_rad: (row.yaw_sd_deg.unwrap_or(0.0).to_radians() * cos_pitch).max(min_sd),
+        ..exact
+    })
 }
 
 /// Each other station's clock must overlap the reference's.
@@ -254,7 +282,7 @@ fn check_clocks(runs: &[StationRun]) -> anyhow::Result<()> {
 /// What became of one reference frame.
 enum Fused {
     /// The stations' sights combined, and the ids of the stations that contributed.
-    Fused(FusedSight, Vec<usize>),
+    Fused(Box<FusedSight>, Vec<usize>),
     /// The reference station's own result stands: why.
     Single(&'static str),
 }
@@ -277,7 +305,7 @@ fn fuse_frames(runs: &[StationRun], max_gap_s: f64) -> Vec<Fused> {
                 }
             }
             match fuse(&sights, &FusionConfig::DEFAULT) {
-                Ok(fused) => Fused::Fused(fused, contributed),
+                Ok(fused) => Fused::Fused(Box::new(fused), contributed),
                 Err(error) => Fused::Single(reason(error)),
             }
         })

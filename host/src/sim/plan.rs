@@ -60,7 +60,13 @@ pub fn plan_frames(scenario: &Scenario, trajectory: &Trajectory) -> anyhow::Resu
     let k = intrinsics(scenario);
     let mut clip_rng = Random::new(scenario.seed, Purpose::Clip, 0);
     let law = AttitudeLaw::new(&scenario.attitude, &mut clip_rng);
-    let tracker = Tracker::new(&scenario.camera, k, scenario.seed, &mut clip_rng);
+    // The first station's mount draws on after the attitude, as a one-station clip's does.
+    let mut station_rng = Random::new(scenario.station_seed(), Purpose::Clip, 0);
+    let tracker_rng = match scenario.camera.station_stream {
+        0 => &mut clip_rng,
+        _ => &mut station_rng,
+    };
+    let tracker = Tracker::new(&scenario.camera, k, scenario.station_seed(), tracker_rng);
 
     let first = libm::round(clip.start_time_s * clip.frame_rate_hz) as u64;
     let frames: Vec<u64> = (0..u64::from(clip.frames))
@@ -102,7 +108,7 @@ pub fn plan_frames(scenario: &Scenario, trajectory: &Trajectory) -> anyhow::Resu
             let range = body.translation.norm();
             let range_m = match scenario.sensor.range_sensor {
                 RangeSensor::Known => {
-                    let mut rng = Random::new(scenario.seed, Purpose::Range, frame);
+                    let mut rng = Random::new(scenario.station_seed(), Purpose::Range, frame);
                     Some(range + scenario.sensor.range_noise_m * rng.gaussian())
                 }
                 RangeSensor::Unknown => None,

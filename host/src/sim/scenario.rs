@@ -51,7 +51,8 @@ pub struct Scenario {
     #[serde(default, skip_serializing_if = "RandomizeConfig::is_off")]
     pub randomize: RandomizeConfig,
     /// Several stations seeing the one flight, each rendered as its own clip (none: the one
-    /// camera of `[camera]`, station `camera.station_id`).
+    /// camera of `[camera]`, station `camera.station_id`). One flight: every station sees the
+    /// same attitude, plume and sky; each mount and sensor has its own errors and noise.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub stations: Vec<StationConfig>,
 }
@@ -257,6 +258,16 @@ pub struct CameraConfig {
     /// The station's name in `clip.json` (`station.id`).
     #[serde(skip_serializing_if = "is_default_station")]
     pub station_id: String,
+    /// The stream of the station's own draws (the mount's pointing error and jitter, the
+    /// sensor's and the range sensor's noise): 0, the first station's, draws them from `seed`
+    /// as a one-station clip does; the flight's draws (attitude, plume, clouds, randomized
+    /// physics, clutter) come from `seed` alone at every station.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub station_stream: u64,
+}
+
+fn is_zero(v: &u64) -> bool {
+    *v == 0
 }
 
 /// The station a scenario without `[[stations]]` is seen from.
@@ -282,6 +293,7 @@ impl Default for CameraConfig {
             pointing_period_s: 7.0,
             tracker_jitter_px: 30.0,
             station_id: DEFAULT_STATION_ID.into(),
+            station_stream: 0,
         }
     }
 }
@@ -665,9 +677,9 @@ impl Scenario {
     }
 
     /// The scenario of each station of `[[stations]]`, in order, with its id: `[camera]` moved
-    /// to the station, its first frame later by its offset, and the seed of the `i`-th station
-    /// `seed + i` (each mount its own pointing error and jitter, each sensor its own noise). One
-    /// scenario, the given one, where there are no stations.
+    /// to the station, its first frame later by its offset, and the `i`-th station's own draws
+    /// from stream `i` (`camera.station_stream`: each mount its own pointing error and jitter,
+    /// each sensor its own noise). One scenario, the given one, where there are no stations.
     pub fn station_scenarios(&self) -> Vec<Scenario> {
         if self.stations.is_empty() {
             return vec![self.clone()];
@@ -678,13 +690,21 @@ impl Scenario {
             .map(|(station, i)| {
                 let mut s = self.clone();
                 s.stations.clear();
-                s.seed = self.seed.wrapping_add(i);
+                s.camera.station_stream = i;
                 s.camera.position_m = station.position_m;
                 s.camera.station_id.clone_from(&station.id);
                 s.clip.start_time_s += station.time_offset_s;
                 s
             })
             .collect()
+    }
+
+    /// The seed of the station's own draws (`camera.station_stream`).
+    pub fn station_seed(&self) -> u64 {
+        match self.camera.station_stream {
+            0 => self.seed,
+            stream => super::random::mix64(self.seed ^ super::random::mix64(stream)),
+        }
     }
 
     /// The scenario as TOML text.

@@ -168,12 +168,11 @@ impl Simulation {
     /// Renders frame `index` of the plan.
     pub fn render_frame(&self, index: usize) -> anyhow::Result<RenderedFrame> {
         let plan = &self.plans[index];
-        let seed = self.resolved.seed;
         let camera = &self.resolved.camera;
         let rendered = self.render_radiance(index)?;
         let pixels = self.sensor.expose(
             &rendered.radiance,
-            &mut Random::new(seed, Purpose::Sensor, plan.frame),
+            &mut Random::new(self.resolved.station_seed(), Purpose::Sensor, plan.frame),
         );
         let mask_bytes: Vec<u8> = rendered
             .mask
