@@ -254,7 +254,7 @@ fn nose_of_planes(sights: &[StationSight]) -> (Vector3<f64>, f64) {
         .sum();
     let eigen = SymmetricEigen::new(scatter);
     let mut order = [0, 1, 2];
-    order.sort_by(|&a, &b| eigen.eigenvalues[a].total_cmp(&eigen.eigenvalues[b]));
+    order.sort_unstable_by(|&a, &b| eigen.eigenvalues[a].total_cmp(&eigen.eigenvalues[b]));
     let [least, middle, most] = order;
     let lambda = |i: usize| eigen.eigenvalues[i];
     let mut nose = eigen.eigenvectors.column(least).into_owned();
