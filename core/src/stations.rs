@@ -223,8 +223,9 @@ pub fn fuse(sights: &[StationSight], config: &FusionConfig) -> Result<FusedSight
         .iter()
         .enumerate()
         .flat_map(|(i, a)| {
-            sights[i + 1..]
+            sights
                 .iter()
+                .skip(i + 1)
                 .map(move |b| angle_deg(&a.sight, &b.sight))
         })
         .fold(0.0, f64::max);
@@ -331,7 +332,7 @@ fn origin_of(sights: &[StationSight]) -> Option<(Vector3<f64>, Matrix3<f64>)> {
 }
 
 /// `nose` mirrored across the plane normal to the unit `sight`: the other yaw candidate.
-fn mirror(nose: &Vector3<f64>, sight: &Vector3<f64>) -> Vector3<f64> {
+pub fn mirror(nose: &Vector3<f64>, sight: &Vector3<f64>) -> Vector3<f64> {
     nose - sight * 2.0 * nose.dot(sight)
 }
 

@@ -17,7 +17,9 @@ use crate::smooth::centred_velocity;
 use anyhow::{Context, bail, ensure};
 use imade_core::pose::{Pose, attitude_of};
 use imade_core::results::{HEADER, WORLD_HEADER, write_row, write_world_columns};
-use imade_core::stations::{FusedSight, FusionConfig, FusionError, SightSd, StationSight, fuse};
+use imade_core::stations::{
+    FusedSight, FusionConfig, FusionError, SightSd, StationSight, fuse, mirror,
+};
 use imade_core::world::{AngleOfAttack, Position, Station, WorldConfig, WorldPose, WorldState};
 use imade_core::{FrameResult, Status};
 use nalgebra::{Matrix3, Vector3};
@@ -381,9 +383,10 @@ fn fused_csv(
         match fused_row {
             Some((row, Fused::Fused(sight, contributed))) => {
                 let velocity = centred_velocity(&positions, row.time_s, &WorldConfig::DEFAULT);
-                let result =
-                    fused_result(row, sight, station).context("a fused frame without a mount")?;
-                write_fused_row(&mut out, row, &result, sight, velocity, station)?;
+                let (result, world) = fused_frame(row, sight, station, velocity)
+                    .context("a fused frame without a mount")?;
+                write_row(&mut out, row.frame, &result).context("writing a fused row")?;
+                write_world_columns(&mut out, Some(&world)).context("writing a fused row")?;
                 let names: Vec<&str> = contributed.iter().map(|&i| runs[i].id.as_str()).collect();
                 out.push_str(&format!(",{}\n", names.join("+")));
             }
@@ -396,22 +399,28 @@ fn fused_csv(
     Ok(out)
 }
 
-/// The fused sight as a frame result in the reference camera frame of `row`: the nose and
-/// its mirror about the image plane, their sigmas from the nose's covariance, the depth's from
-/// the origin's.
-fn fused_result(row: &FrameRow, sight: &FusedSight, station: &Station) -> Option<FrameResult> {
-    let r_ec = row.mount?.rotation_camera_to_world();
+/// The fused sight as a frame result in the reference camera frame of `row` (the nose and its
+/// mirror about the image plane, their sigmas from the nose's covariance, the depth's from the
+/// origin's) and in E, with the angle of attack against `velocity` (m/s in E) where known.
+/// None where the row has no mount pointing.
+fn fused_frame(
+    row: &FrameRow,
+    sight: &FusedSight,
+    station: &Station,
+    velocity: Option<[f64; 3]>,
+) -> Option<(FrameResult, WorldState)> {
+    let mount = row.mount?;
+    let r_ec = mount.rotation_camera_to_world();
     let r_ce = r_ec.transpose();
     let origin_c = r_ce * (sight.origin_enu_m - Vector3::from(station.enu_m));
     let nose_c = r_ce * sight.nose;
-    let line_of_sight = origin_c.normalize();
-    let mirrored_c = nose_c - line_of_sight * 2.0 * nose_c.dot(&line_of_sight);
+    let mirrored_c = mirror(&nose_c, &origin_c.normalize());
     let (pitch, yaw) = attitude_of(&nose_c.map(|x| x as f32));
     let (pitch_alt, yaw_alt) = attitude_of(&mirrored_c.map(|x| x as f32));
     let (pitch_sd, yaw_sd) = attitude_sd(&(r_ce * sight.nose_cov * r_ec), pitch, yaw);
     let depth_axis = r_ec.column(2).into_owned();
     let tz_sd = (depth_axis.transpose() * sight.origin_cov * depth_axis)[0].sqrt();
-    Some(FrameResult {
+    let result = FrameResult {
         status: Status::Ok,
         pose: Pose {
             tx_m: origin_c.x as f32,
@@ -429,7 +438,17 @@ fn fused_result(row: &FrameRow, sight: &FusedSight, station: &Station) -> Option
         yaw_sd_deg: yaw_sd as f32,
         image_range_m: 0.0,
         ..FrameResult::failed(Status::Ok)
-    })
+    };
+    // The origin in E as fused, not back through the f32 pose.
+    let pose = WorldPose {
+        origin_enu_m: sight.origin_enu_m.into(),
+        ..WorldPose::of(&result.pose, &mount, station)
+    };
+    let world = WorldState {
+        pose,
+        aoa: velocity.and_then(|v| AngleOfAttack::of(&sight.nose.into(), &v)),
+    };
+    Some((result, world))
 }
 
 /// One sigma of pitch and yaw, deg, from the nose's covariance in C (rad²): along the nose's
@@ -444,29 +463,6 @@ fn attitude_sd(cov_c: &Matrix3<f64>, pitch_deg: f32, yaw_deg: f32) -> (f64, f64)
         var(&by_pitch).sqrt().to_degrees(),
         var(&by_yaw).sqrt().to_degrees() / (cp * cp).max(1e-12),
     )
-}
-
-/// Writes a fused row's results and world columns (without the line end).
-fn write_fused_row(
-    out: &mut String,
-    row: &FrameRow,
-    result: &FrameResult,
-    sight: &FusedSight,
-    velocity: Option<[f64; 3]>,
-    station: &Station,
-) -> anyhow::Result<()> {
-    let mount = row
-        .mount
-        .context("the reference frame has no mount pointing")?;
-    let mut pose = WorldPose::of(&result.pose, &mount, station);
-    pose.origin_enu_m = sight.origin_enu_m.into();
-    let world = WorldState {
-        pose,
-        aoa: velocity.and_then(|v| AngleOfAttack::of(&sight.nose.into(), &v)),
-    };
-    write_row(out, row.frame, result).context("writing a fused row")?;
-    write_world_columns(out, Some(&world)).context("writing a fused row")?;
-    Ok(())
 }
 
 /// What `imade fuse` did, for `fusion.json` and the terminal.

@@ -52,8 +52,8 @@ pub const PRESETS: [(&str, &str); 10] = [
     ),
     (
         "two-stations",
-        "the Table 1 flight seen from two stations 2.5 km apart, no range sensor, frames half a \
-         frame apart: one clip per station for `imade fuse`",
+        "the Table 1 flight seen from two stations 2.4 km apart, no range sensor, B's frames a \
+         camera frame after A's: one clip per station for `imade fuse`",
     ),
 ];
 
@@ -110,8 +110,8 @@ fn table1(launch_angle_deg: f64, time_of_day: &str, seed: u64) -> Scenario {
 }
 
 /// The Table 1 flight from two stations: A, the Table 1 camera west of the line of fire, and
-/// B, 1.3 km east of it and 1.4 km downrange, whose line of sight meets A's at about 110 deg.
-/// No range sensor; B's frames are taken half a camera frame after A's.
+/// B, 1.3 km east of it and 1.4 km downrange, whose line of sight meets A's at 110-135 deg.
+/// No range sensor; B's frames are taken a camera frame after A's.
 fn two_stations() -> Scenario {
     let mut s = table1(39.0, "17:15", 20240907);
     s.description = "The Table 1 flight from two stations, no range sensor".into();
@@ -128,7 +128,7 @@ fn two_stations() -> Scenario {
         StationConfig {
             id: "B".into(),
             position_m: [1300.0, 1400.0, 2.0],
-            time_offset_s: 0.5 / s.clip.frame_rate_hz,
+            time_offset_s: 1.0 / s.clip.frame_rate_hz,
         },
     ];
     s
