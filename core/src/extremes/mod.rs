@@ -91,6 +91,7 @@ impl SilhouetteConfig {
             onset_diameters: 0.5,
             min_plume_area: 1.0,
             min_fill_diameters: 0.1,
+            max_contrast_sigmas: 10.0,
         }),
         follow: Some(FollowConfig::DEFAULT),
         remeasure_length: 1.3,
@@ -399,6 +400,24 @@ fn measure_on(
         }
         plume_high = Some(high);
     }
+    // Where the body's size is expected and a plume marks the tail of a faint body, a faded
+    // stretch can lie between the found tail and the plume: the tail is where the plume begins.
+    if let (Some(plume_high), Some(longest), Some(bridge)) =
+        (plume_high, longest, &config.fade_bridge)
+        && let Some(faded) = fade_to_plume(
+            &profile,
+            &ends,
+            plume_high,
+            &section,
+            background.sigma(),
+            prior,
+            model,
+            longest,
+            bridge,
+        )
+    {
+        ends = faded;
+    }
     let Ends {
         low,
         high,
@@ -477,6 +496,73 @@ fn measure_on(
         sigma_px: section.sigma_px,
         nose_evidence: libm::fabsf(evidence),
         plume_at_tail,
+    })
+}
+
+/// Where a plume marks the tail (`plume_high`: at the high end) of a faint body (of at most
+/// [`FadeBridge::max_contrast_sigmas`] noise sigmas `noise`) and begins beyond the found tail by
+/// more than the blur, the stretch between is the body faded (the sky behind it as bright as the
+/// body): the ends with the tail where the plume begins and the nose where the model's
+/// silhouette from there best fits the profile ([`orientation::nose_by_model`], the body's
+/// expected diameter and longest look `longest_px`). None where the plume begins at the found
+/// tail, the body is not faint, or the diameter is not expected.
+#[allow(clippy::too_many_arguments)]
+fn fade_to_plume(
+    profile: &WidthProfile,
+    ends: &Ends,
+    plume_high: bool,
+    section: &CrossSection,
+    noise: f32,
+    prior: &Prior,
+    model: &ProjectileModel,
+    longest_px: f32,
+    bridge: &FadeBridge,
+) -> Option<Ends> {
+    let expected_d = prior.diameter_px?;
+    if section.contrast > bridge.max_contrast_sigmas * noise {
+        return None;
+    }
+    let (found_tail, outward) = if plume_high {
+        (ends.hi50, 1.0)
+    } else {
+        (ends.lo50, -1.0)
+    };
+    let d = section.diameter_px;
+    let reach = longest_px - (ends.hi50 - ends.lo50);
+    let tail50 = profile
+        .opposite_onset(
+            found_tail,
+            outward as isize,
+            reach,
+            bridge.onset_diameters * d,
+        )
+        .filter(|onset| (onset - found_tail) * outward > 1.0 + 2.0 * section.sigma_px)?;
+    let (nose50, tip) = orientation::nose_by_model(
+        profile,
+        tail50,
+        -outward,
+        expected_d,
+        0.25 * longest_px,
+        longest_px,
+        0.3 * longest_px,
+        model,
+    )?;
+    let tail = profile.bin_of(tail50);
+    let nose = profile.bin_of(tip - outward * 2.0 * section.sigma_px);
+    Some(if plume_high {
+        Ends {
+            low: nose,
+            high: tail,
+            lo50: nose50,
+            hi50: tail50,
+        }
+    } else {
+        Ends {
+            low: tail,
+            high: nose,
+            lo50: tail50,
+            hi50: nose50,
+        }
     })
 }
 

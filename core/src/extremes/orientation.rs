@@ -24,6 +24,9 @@ struct ModelWidths {
     width: [f32; SAMPLES],
     /// Whether sample k lies where the model has fins (its width there is a lower bound).
     finned: [bool; SAMPLES],
+    /// The tip's distance ahead of the nose's half-diameter point, in lengths between the two
+    /// half-diameter points.
+    tip_ahead: f32,
 }
 
 impl ModelWidths {
@@ -54,7 +57,28 @@ impl ModelWidths {
             *w = 2.0 * model.radius_at(s) / diameter;
             *f = s >= fins_from;
         }
-        ModelWidths { width, finned }
+        let tip_ahead = nose50 / (tail50 - nose50).max(f32::EPSILON);
+        ModelWidths {
+            width,
+            finned,
+            tip_ahead,
+        }
+    }
+
+    /// Squared difference, in diameters squared, of a measured width `measured` (diameters) at
+    /// fraction `u` of the length from the nose's half-diameter point, and the model's there.
+    fn miss_at(&self, u: f32, measured: f32) -> f32 {
+        let k = ((u * SAMPLES as f32) as usize).min(SAMPLES - 1);
+        let (expected, finned) = (
+            self.width.get(k).copied().unwrap_or(1.0),
+            self.finned.get(k).copied().unwrap_or(false),
+        );
+        let miss = if finned {
+            (measured - expected).min(0.0)
+        } else {
+            measured - expected
+        };
+        miss * miss
     }
 
     /// Mean squared difference, in diameters squared, of the measured widths (from the nose
@@ -125,6 +149,62 @@ pub fn plume_at_high(
     }
 }
 
+/// Where the nose's half-diameter point lies for a body whose tail's lies at `tail50` px along
+/// the axis and whose nose lies towards `toward` (+1 or -1): the point between `shortest_px`
+/// and `longest_px` from the tail at which the width profile best matches the model's silhouette
+/// of that length (`diameter_px` wide) with nothing of the body beyond its tip, up to
+/// `longest_px` plus `beyond_px` from the tail. A measured width counts at most 1.5 diameters
+/// (a filament or a cloud crossing the body), and a filament going on beyond the nose, narrower
+/// than the body, costs less than the body's own width missing. Returns the nose's
+/// half-diameter point and its tip, px along the axis; None where no length fits.
+#[allow(clippy::too_many_arguments)]
+pub fn nose_by_model(
+    profile: &WidthProfile,
+    tail50: f32,
+    toward: f32,
+    diameter_px: f32,
+    shortest_px: f32,
+    longest_px: f32,
+    beyond_px: f32,
+    model: &ProjectileModel,
+) -> Option<(f32, f32)> {
+    let expected = ModelWidths::of(model);
+    let scale = 1.0 / diameter_px.max(1e-6);
+    let first = profile.bin_of(tail50);
+    let last = profile.bin_of(tail50 + toward * (longest_px + beyond_px));
+    let (lo, hi) = (first.min(last), first.max(last));
+    let measured = |i: usize| (profile.at(i) * scale).clamp(-0.5, 1.5);
+    let mut best: Option<(f32, f32)> = None;
+    let mut length = shortest_px.max(1.0);
+    while length <= longest_px {
+        let tip = length * (1.0 + expected.tip_ahead);
+        let cost: f32 = (lo..=hi)
+            .map(|i| {
+                let along = (profile.t_of(i) - tail50) * toward;
+                let m = measured(i);
+                if (0.0..length).contains(&along) {
+                    expected.miss_at(1.0 - along / length, m)
+                } else if along >= tip + 1.0 {
+                    let beyond = m.max(0.0);
+                    beyond * beyond
+                } else {
+                    0.0
+                }
+            })
+            .sum();
+        if best.is_none_or(|(c, _)| cost < c) {
+            best = Some((cost, length));
+        }
+        length += 1.0;
+    }
+    best.map(|(_, length)| {
+        (
+            tail50 + toward * length,
+            tail50 + toward * length * (1.0 + expected.tip_ahead),
+        )
+    })
+}
+
 /// What [`plume_beyond_fade`] needs of the plume and of the stretch it bridges.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -137,6 +217,10 @@ pub struct FadeBridge {
     /// The faded stretch between the found end and the plume has a mean width of at least this
     /// many body diameters (of the body's polarity: the body goes on, faint).
     pub min_fill_diameters: f32,
+    /// Where a plume already marks the tail, a faded stretch before it is looked for only on a
+    /// body at most this many noise sigmas from the sky (a fade needs the sky behind to change
+    /// by the body's whole contrast; a bright body's plume can begin a little beyond its base).
+    pub max_contrast_sigmas: f32,
 }
 
 /// Where a faint body fades before its tail (the sky behind the tail as dark as the body) and
@@ -218,6 +302,7 @@ mod tests {
             onset_diameters: 0.5,
             min_plume_area: 1.0,
             min_fill_diameters: 0.1,
+            max_contrast_sigmas: 10.0,
         };
         let onset = |faded: bool, plume: bool, longest_px: f32| {
             let bands = [
@@ -245,6 +330,41 @@ mod tests {
             None,
             "longer than the body can be"
         );
+    }
+
+    /// A dark bar 9 px wide from x = 40 to 160 (its tail at 160), the reference model's
+    /// diameter 9 px: the model's nose lies at the bar's end, also where a filament a third as
+    /// wide goes on along the axis beyond it; never beyond the longest the body can look.
+    #[test]
+    fn the_model_finds_the_nose_past_a_filament() {
+        let model = reference();
+        for filament in [false, true] {
+            let bands = [
+                filament.then_some(Band {
+                    x: (0, 40),
+                    half_width: 1.0,
+                    grey: 40,
+                }),
+                Some(Band::dark(40, 160)),
+            ];
+            let profile = profile_of(bands.into_iter().flatten(), 99.0);
+            let (nose50, tip) =
+                nose_by_model(&profile, 60.0, -1.0, 9.0, 30.0, 150.0, 40.0, &model).unwrap();
+            // x = 40 is t = -60. The model's tapering nose fits part of a filament a third of
+            // its width (up to 7 px of the 100 px filament), never the filament's whole length.
+            let reach = if filament { 7.0 } else { 4.0 };
+            assert!(
+                (nose50 + 60.0).abs() <= reach,
+                "filament {filament}: {nose50}"
+            );
+            assert!(
+                tip < nose50 && tip > nose50 - 8.0,
+                "filament {filament}: tip {tip}"
+            );
+            let (short, _) =
+                nose_by_model(&profile, 60.0, -1.0, 9.0, 30.0, 80.0, 40.0, &model).unwrap();
+            assert!((short + 20.0).abs() <= 0.5, "at most 80 px: {short}");
+        }
     }
 
     #[test]
