@@ -401,10 +401,10 @@ fn measure_on(
         plume_high = Some(high);
     }
     // Where the body's size is expected and a plume marks the tail of a faint body, a faded
-    // stretch can lie between the found tail and the plume: the tail is where the plume begins.
+    // stretch before the plume or a filament beyond the nose is read by the model.
     if let (Some(plume_high), Some(longest), Some(bridge)) =
         (plume_high, longest, &config.fade_bridge)
-        && let Some(faded) = fade_to_plume(
+        && let Some(read) = ends_by_model(
             &profile,
             &ends,
             plume_high,
@@ -414,9 +414,10 @@ fn measure_on(
             model,
             longest,
             bridge,
+            &LocalContrast::new(background, &axis, found.polarity, &section, half_length),
         )
     {
-        ends = faded;
+        ends = read;
     }
     let Ends {
         low,
@@ -499,15 +500,21 @@ fn measure_on(
     })
 }
 
-/// Where a plume marks the tail (`plume_high`: at the high end) of a faint body (of at most
-/// [`FadeBridge::max_contrast_sigmas`] noise sigmas `noise`) and begins beyond the found tail by
-/// more than the blur, the stretch between is the body faded (the sky behind it as bright as the
-/// body): the ends with the tail where the plume begins and the nose where the model's
-/// silhouette from there best fits the profile ([`orientation::nose_by_model`], the body's
-/// expected diameter and longest look `longest_px`). None where the plume begins at the found
-/// tail, the body is not faint, or the diameter is not expected.
+/// The ends of a faint body (at most [`FadeBridge::max_contrast_sigmas`] noise sigmas `noise`
+/// from the sky) whose tail a plume marks (`plume_high`: at the high end), read again by the
+/// model where the found ones cannot be the body's:
+/// - where the plume begins beyond the found tail by more than the blur, the stretch between is
+///   the body faded (the sky behind it as bright as the body): the tail is where the plume
+///   begins;
+/// - where the found ends lie farther apart than the body can look (`longest_px`), the nose
+///   went on along a filament.
+///
+/// In either case the nose is where the model's silhouette from the tail best fits the profile
+/// ([`orientation::nose_by_model`], at the body's expected diameter and its contrast `local`
+/// along the axis). None where neither holds, the body is not faint, or its diameter is not
+/// expected.
 #[allow(clippy::too_many_arguments)]
-fn fade_to_plume(
+fn ends_by_model(
     profile: &WidthProfile,
     ends: &Ends,
     plume_high: bool,
@@ -517,6 +524,7 @@ fn fade_to_plume(
     model: &ProjectileModel,
     longest_px: f32,
     bridge: &FadeBridge,
+    local: &LocalContrast,
 ) -> Option<Ends> {
     let expected_d = prior.diameter_px?;
     if section.contrast > bridge.max_contrast_sigmas * noise {
@@ -527,16 +535,20 @@ fn fade_to_plume(
     } else {
         (ends.lo50, -1.0)
     };
-    let d = section.diameter_px;
-    let reach = longest_px - (ends.hi50 - ends.lo50);
-    let tail50 = profile
+    let found_length = ends.hi50 - ends.lo50;
+    let onset = profile
         .opposite_onset(
             found_tail,
             outward as isize,
-            reach,
-            bridge.onset_diameters * d,
+            longest_px - found_length,
+            bridge.onset_diameters * section.diameter_px,
         )
-        .filter(|onset| (onset - found_tail) * outward > 1.0 + 2.0 * section.sigma_px)?;
+        .filter(|onset| (onset - found_tail) * outward > 1.0 + 2.0 * section.sigma_px);
+    let tail50 = match onset {
+        Some(onset) => onset,
+        None if found_length > longest_px => found_tail,
+        None => return None,
+    };
     let (nose50, tip) = orientation::nose_by_model(
         profile,
         tail50,
@@ -546,6 +558,7 @@ fn fade_to_plume(
         longest_px,
         0.3 * longest_px,
         model,
+        |t| local.at(t),
     )?;
     let tail = profile.bin_of(tail50);
     let nose = profile.bin_of(tip - outward * 2.0 * section.sigma_px);
@@ -564,6 +577,49 @@ fn fade_to_plume(
             hi50: nose50,
         }
     })
+}
+
+/// The body's contrast along its axis in fractions of the middle's, where the sky model behind
+/// it changes and the body's own radiance does not: 1 where the sky is as at the middle, 0 where
+/// it is as bright as the body, negative where it is beyond.
+struct LocalContrast<'a> {
+    background: &'a Background,
+    axis: &'a Axis,
+    /// The polarity's sign.
+    sign: f32,
+    /// The sky model's mean at the middle's cross-sections, grey levels.
+    middle_sky: f32,
+    /// The middle's contrast, grey levels.
+    contrast: f32,
+}
+
+impl<'a> LocalContrast<'a> {
+    fn new(
+        background: &'a Background,
+        axis: &'a Axis,
+        polarity: BodyPolarity,
+        section: &CrossSection,
+        half_length: f32,
+    ) -> Self {
+        let sky = |t: f32| {
+            let p = axis.point(t * half_length);
+            background.at(p.x, p.y)
+        };
+        LocalContrast {
+            background,
+            axis,
+            sign: polarity.sign(),
+            middle_sky: 0.25 * (sky(-0.375) + sky(-0.125) + sky(0.125) + sky(0.375)),
+            contrast: section.contrast.max(f32::EPSILON),
+        }
+    }
+
+    /// At `t` px along the axis, within -0.5 to 2.
+    fn at(&self, t: f32) -> f32 {
+        let p = self.axis.point(t);
+        let sky = self.background.at(p.x, p.y);
+        (1.0 + self.sign * (self.middle_sky - sky) / self.contrast).clamp(-0.5, 2.0)
+    }
 }
 
 /// The body's ends in a width profile: the outermost bins at the end level (`low`, `high`) and

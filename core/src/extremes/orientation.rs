@@ -15,6 +15,9 @@
 use super::axial_profile::WidthProfile;
 use crate::model::ProjectileModel;
 
+/// Points at which [`nose_by_model`] samples the body's contrast along the profile.
+const CONTRAST_SAMPLES: usize = 64;
+
 /// Points at which the two profiles are compared.
 pub const SAMPLES: usize = 32;
 
@@ -67,10 +70,10 @@ impl ModelWidths {
 
     /// Squared difference, in diameters squared, of a measured width `measured` (diameters) at
     /// fraction `u` of the length from the nose's half-diameter point, and the model's there.
-    fn miss_at(&self, u: f32, measured: f32) -> f32 {
+    fn miss_at(&self, u: f32, measured: f32, contrast: f32) -> f32 {
         let k = ((u * SAMPLES as f32) as usize).min(SAMPLES - 1);
         let (expected, finned) = (
-            self.width.get(k).copied().unwrap_or(1.0),
+            contrast * self.width.get(k).copied().unwrap_or(1.0),
             self.finned.get(k).copied().unwrap_or(false),
         );
         let miss = if finned {
@@ -152,8 +155,10 @@ pub fn plume_at_high(
 /// Where the nose's half-diameter point lies for a body whose tail's lies at `tail50` px along
 /// the axis and whose nose lies towards `toward` (+1 or -1): the point between `shortest_px`
 /// and `longest_px` from the tail at which the width profile best matches the model's silhouette
-/// of that length (`diameter_px` wide) with nothing of the body beyond its tip, up to
-/// `longest_px` plus `beyond_px` from the tail. A measured width counts at most 1.5 diameters
+/// of that length (`diameter_px` wide, its width at `t` px along the axis seen at
+/// `contrast_at(t)` of the contrast the profile was measured at: where the sky behind the body
+/// is as bright as the body, nothing of it shows) with nothing of the body beyond its tip, up
+/// to `longest_px` plus `beyond_px` from the tail. A measured width counts at most 1.5 diameters
 /// (a filament or a cloud crossing the body), and a filament going on beyond the nose, narrower
 /// than the body, costs less than the body's own width missing. Returns the nose's
 /// half-diameter point and its tip, px along the axis; None where no length fits.
@@ -167,6 +172,7 @@ pub fn nose_by_model(
     longest_px: f32,
     beyond_px: f32,
     model: &ProjectileModel,
+    contrast_at: impl Fn(f32) -> f32,
 ) -> Option<(f32, f32)> {
     let expected = ModelWidths::of(model);
     let scale = 1.0 / diameter_px.max(1e-6);
@@ -174,6 +180,15 @@ pub fn nose_by_model(
     let last = profile.bin_of(tail50 + toward * (longest_px + beyond_px));
     let (lo, hi) = (first.min(last), first.max(last));
     let measured = |i: usize| (profile.at(i) * scale).clamp(-0.5, 1.5);
+    // The contrast changes with the sky model, smoothly: sampled at CONTRAST_SAMPLES points
+    // over the bins and read at the nearest.
+    let mut contrast = [1.0f32; CONTRAST_SAMPLES];
+    let per_sample = (hi - lo + 1).div_ceil(CONTRAST_SAMPLES).max(1);
+    for (k, c) in contrast.iter_mut().enumerate() {
+        let i = lo + k * per_sample + per_sample / 2;
+        *c = contrast_at(profile.t_of(i.min(hi)));
+    }
+    let contrast_of = |i: usize| contrast.get((i - lo) / per_sample).copied().unwrap_or(1.0);
     let mut best: Option<(f32, f32)> = None;
     let mut length = shortest_px.max(1.0);
     while length <= longest_px {
@@ -183,7 +198,7 @@ pub fn nose_by_model(
                 let along = (profile.t_of(i) - tail50) * toward;
                 let m = measured(i);
                 if (0.0..length).contains(&along) {
-                    expected.miss_at(1.0 - along / length, m)
+                    expected.miss_at(1.0 - along / length, m, contrast_of(i))
                 } else if along >= tip + 1.0 {
                     let beyond = m.max(0.0);
                     beyond * beyond
@@ -334,11 +349,13 @@ mod tests {
 
     /// A dark bar 9 px wide from x = 40 to 160 (its tail at 160), the reference model's
     /// diameter 9 px: the model's nose lies at the bar's end, also where a filament a third as
-    /// wide goes on along the axis beyond it; never beyond the longest the body can look.
+    /// wide goes on along the axis beyond it, and where the bar's first 40 px are faded to a
+    /// sixth of its contrast (the sky behind as dark), told by the contrast along the axis;
+    /// never beyond the longest the body can look.
     #[test]
-    fn the_model_finds_the_nose_past_a_filament() {
+    fn the_model_finds_the_nose_past_a_filament_and_a_fade() {
         let model = reference();
-        for filament in [false, true] {
+        for (filament, faded) in [(false, false), (true, false), (false, true)] {
             let bands = [
                 filament.then_some(Band {
                     x: (0, 40),
@@ -346,24 +363,35 @@ mod tests {
                     grey: 40,
                 }),
                 Some(Band::dark(40, 160)),
+                faded.then(|| Band::faded(40, 80)),
             ];
             let profile = profile_of(bands.into_iter().flatten(), 99.0);
-            let (nose50, tip) =
-                nose_by_model(&profile, 60.0, -1.0, 9.0, 30.0, 150.0, 40.0, &model).unwrap();
+            // x = 80 is t = -20.
+            let contrast = |t: f32| if faded && t < -20.0 { 1.0 / 6.0 } else { 1.0 };
+            let fit = |longest: f32| {
+                nose_by_model(
+                    &profile, 60.0, -1.0, 9.0, 30.0, longest, 40.0, &model, contrast,
+                )
+                .unwrap()
+            };
+            let (nose50, tip) = fit(150.0);
             // x = 40 is t = -60. The model's tapering nose fits part of a filament a third of
             // its width (up to 7 px of the 100 px filament), never the filament's whole length.
             let reach = if filament { 7.0 } else { 4.0 };
+            let case = (filament, faded);
             assert!(
                 (nose50 + 60.0).abs() <= reach,
-                "filament {filament}: {nose50}"
+                "(filament, faded) {case:?}: {nose50}"
             );
             assert!(
                 tip < nose50 && tip > nose50 - 8.0,
-                "filament {filament}: tip {tip}"
+                "(filament, faded) {case:?}: tip {tip}"
             );
-            let (short, _) =
-                nose_by_model(&profile, 60.0, -1.0, 9.0, 30.0, 80.0, 40.0, &model).unwrap();
-            assert!((short + 20.0).abs() <= 0.5, "at most 80 px: {short}");
+            let (short, _) = fit(80.0);
+            assert!(
+                (short + 20.0).abs() <= 0.5,
+                "(filament, faded) {case:?}: at most 80 px: {short}"
+            );
         }
     }
 
