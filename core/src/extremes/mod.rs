@@ -414,7 +414,7 @@ fn measure_on(
             model,
             longest,
             bridge,
-            &LocalContrast::new(background, &axis, found.polarity, &section, half_length),
+            || LocalContrast::new(background, &axis, found.polarity, &section, half_length),
         )
     {
         ends = read;
@@ -510,11 +510,11 @@ fn measure_on(
 ///   went on along a filament.
 ///
 /// In either case the nose is where the model's silhouette from the tail best fits the profile
-/// ([`orientation::nose_by_model`], at the body's expected diameter and its contrast `local`
-/// along the axis). None where neither holds, the body is not faint, or its diameter is not
+/// ([`orientation::nose_by_model`], at the body's expected diameter and its contrast along the
+/// axis, `local()`: made only where the ends are read again). None where neither holds, the body is not faint, or its diameter is not
 /// expected.
 #[allow(clippy::too_many_arguments)]
-fn ends_by_model(
+fn ends_by_model<'a>(
     profile: &WidthProfile,
     ends: &Ends,
     plume_high: bool,
@@ -524,7 +524,7 @@ fn ends_by_model(
     model: &ProjectileModel,
     longest_px: f32,
     bridge: &FadeBridge,
-    local: &LocalContrast,
+    local: impl FnOnce() -> LocalContrast<'a>,
 ) -> Option<Ends> {
     let expected_d = prior.diameter_px?;
     if section.contrast > bridge.max_contrast_sigmas * noise {
@@ -549,6 +549,7 @@ fn ends_by_model(
         None if found_length > longest_px => found_tail,
         None => return None,
     };
+    let local = local();
     let (nose50, tip) = orientation::nose_by_model(
         profile,
         tail50,
@@ -601,24 +602,30 @@ impl<'a> LocalContrast<'a> {
         section: &CrossSection,
         half_length: f32,
     ) -> Self {
-        let sky = |t: f32| {
-            let p = axis.point(t * half_length);
-            background.at(p.x, p.y)
-        };
-        LocalContrast {
+        let mut local = LocalContrast {
             background,
             axis,
             sign: polarity.sign(),
-            middle_sky: 0.25 * (sky(-0.375) + sky(-0.125) + sky(0.125) + sky(0.375)),
+            middle_sky: 0.0,
             contrast: section.contrast.max(f32::EPSILON),
-        }
+        };
+        local.middle_sky = 0.25
+            * [-0.375, -0.125, 0.125, 0.375]
+                .iter()
+                .map(|f| local.sky_at(f * half_length))
+                .sum::<f32>();
+        local
+    }
+
+    /// The sky model at `t` px along the axis, grey levels.
+    fn sky_at(&self, t: f32) -> f32 {
+        let p = self.axis.point(t);
+        self.background.at(p.x, p.y)
     }
 
     /// At `t` px along the axis, within -0.5 to 2.
     fn at(&self, t: f32) -> f32 {
-        let p = self.axis.point(t);
-        let sky = self.background.at(p.x, p.y);
-        (1.0 + self.sign * (self.middle_sky - sky) / self.contrast).clamp(-0.5, 2.0)
+        (1.0 + self.sign * (self.middle_sky - self.sky_at(t)) / self.contrast).clamp(-0.5, 2.0)
     }
 }
 

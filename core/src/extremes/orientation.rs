@@ -69,19 +69,15 @@ impl ModelWidths {
     }
 
     /// Squared difference, in diameters squared, of a measured width `measured` (diameters) at
-    /// fraction `u` of the length from the nose's half-diameter point, and the model's there.
+    /// fraction `u` of the length from the nose's half-diameter point, and the model's there
+    /// seen at `contrast` of the profile's contrast.
     fn miss_at(&self, u: f32, measured: f32, contrast: f32) -> f32 {
         let k = ((u * SAMPLES as f32) as usize).min(SAMPLES - 1);
-        let (expected, finned) = (
+        squared_miss(
+            measured,
             contrast * self.width.get(k).copied().unwrap_or(1.0),
             self.finned.get(k).copied().unwrap_or(false),
-        );
-        let miss = if finned {
-            (measured - expected).min(0.0)
-        } else {
-            measured - expected
-        };
-        miss * miss
+        )
     }
 
     /// Mean squared difference, in diameters squared, of the measured widths (from the nose
@@ -89,11 +85,21 @@ impl ModelWidths {
     fn misfit(&self, measured: impl Iterator<Item = f32>) -> f32 {
         let mut sum = 0.0f32;
         for ((m, &e), &finned) in measured.zip(&self.width).zip(&self.finned) {
-            let miss = if finned { (m - e).min(0.0) } else { m - e };
-            sum += miss * miss;
+            sum += squared_miss(m, e, finned);
         }
         sum / SAMPLES as f32
     }
+}
+
+/// The squared difference of a measured width and the model's `expected` one; where the model
+/// has fins (`finned`) its width is a lower bound, and only a narrower measure counts.
+fn squared_miss(measured: f32, expected: f32, finned: bool) -> f32 {
+    let miss = if finned {
+        (measured - expected).min(0.0)
+    } else {
+        measured - expected
+    };
+    miss * miss
 }
 
 /// The fraction of the length at which sample `k` lies.
@@ -189,10 +195,11 @@ pub fn nose_by_model(
         *c = contrast_at(profile.t_of(i.min(hi)));
     }
     let contrast_of = |i: usize| contrast.get((i - lo) / per_sample).copied().unwrap_or(1.0);
+    let tip_of = |length: f32| length * (1.0 + expected.tip_ahead);
     let mut best: Option<(f32, f32)> = None;
     let mut length = shortest_px.max(1.0);
     while length <= longest_px {
-        let tip = length * (1.0 + expected.tip_ahead);
+        let tip = tip_of(length);
         let cost: f32 = (lo..=hi)
             .map(|i| {
                 let along = (profile.t_of(i) - tail50) * toward;
@@ -212,12 +219,7 @@ pub fn nose_by_model(
         }
         length += 1.0;
     }
-    best.map(|(_, length)| {
-        (
-            tail50 + toward * length,
-            tail50 + toward * length * (1.0 + expected.tip_ahead),
-        )
-    })
+    best.map(|(_, length)| (tail50 + toward * length, tail50 + toward * tip_of(length)))
 }
 
 /// What [`plume_beyond_fade`] needs of the plume and of the stretch it bridges.
