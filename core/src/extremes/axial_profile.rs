@@ -311,6 +311,24 @@ impl WidthProfile {
         let intercept = (sw - slope * st) / n;
         (libm::fabsf(slope) > 1e-6).then(|| -intercept / slope)
     }
+
+    /// The tip of the nose whose half-width point is `nose50` (px along the axis): the zero of
+    /// [`WidthProfile::ramp_zero`] from the end `outer` inwards (direction `inward`) where it
+    /// lies ahead of `nose50` by at most `reach_px` (the model's nose and the blur), else
+    /// `nose50`. A flat or noisy ramp, such as a filament running on along the nose line,
+    /// extrapolates anywhere.
+    pub fn nose_tip(
+        &self,
+        outer: usize,
+        inward: isize,
+        (lo, hi): (f32, f32),
+        nose50: f32,
+        reach_px: f32,
+    ) -> f32 {
+        self.ramp_zero(outer, inward, lo, hi)
+            .filter(|&t| (0.0..=reach_px).contains(&((nose50 - t) * inward as f32)))
+            .unwrap_or(nose50)
+    }
 }
 
 /// A test chip of bars and blobs along one line, and its width profile.
@@ -413,5 +431,40 @@ mod tests {
             99.0,
         );
         assert_eq!(plume.paying_end(0.0, 1, 120.0, level, cap), 0.0);
+    }
+
+    /// A 9-px body ends at x = 120 (t = 20). Its nose tapering over 8 px to 3 px wide puts the
+    /// ramp's zero 6 px beyond its last bin, at t = 36, within the nose's reach. A filament 5
+    /// then 3 px wide running on to the chip's edge puts it near t = 140 instead: beyond the
+    /// reach, the half-width point stands.
+    #[test]
+    fn the_nose_tip_is_the_ramp_zero_only_within_the_nose_reach() {
+        let band = |x0, x1, half_width| Band {
+            x: (x0, x1),
+            half_width,
+            grey: 40,
+        };
+        let ramp = (0.2 * 9.0, 0.65 * 9.0);
+        let (nose50, reach) = (20.0, 29.0);
+        let tapered = profile_of(
+            [
+                band(40, 120, 4.0),
+                band(120, 124, 3.0),
+                band(124, 128, 2.0),
+                band(128, 132, 1.0),
+            ],
+            99.0,
+        );
+        let outer = tapered.bin_of(60.0);
+        let tip = tapered.nose_tip(outer, -1, ramp, nose50, reach);
+        assert!((tip - 36.0).abs() <= 1.0, "{tip}");
+        let filament = profile_of(
+            [band(40, 120, 4.0), band(120, 160, 2.0), band(160, 200, 1.0)],
+            99.0,
+        );
+        let outer = filament.bin_of(98.0);
+        let zero = filament.ramp_zero(outer, -1, ramp.0, ramp.1).unwrap();
+        assert!(zero > 20.0 + 2.0 * reach, "the filament's ramp: {zero}");
+        assert_eq!(filament.nose_tip(outer, -1, ramp, nose50, reach), nose50);
     }
 }

@@ -442,9 +442,18 @@ fn measure_on(
         (low, 1isize, lo50, high, -1isize, hi50)
     };
     let (ramp_low, ramp_high) = config.nose_ramp;
-    let nose_t = profile
-        .ramp_zero(nose_outer, nose_inward, ramp_low * d, ramp_high * d)
-        .unwrap_or(nose50);
+    // The tip lies ahead of the half-width point by at most the model's nose (tip to full
+    // diameter) and the blur; a filament along the nose line once put it 330 px beyond a 113-px
+    // body.
+    let nose_reach_px =
+        model.cylinder_s().0.min(model.length_m) / model.diameter_m * d + 2.0 * section.sigma_px;
+    let nose_t = profile.nose_tip(
+        nose_outer,
+        nose_inward,
+        (ramp_low * d, ramp_high * d),
+        nose50,
+        nose_reach_px,
+    );
     // The tail plateau just inside the tail edge, then its half-level crossing.
     let inward = tail_inward as f32;
     let (near, far) = config.plateau_window;
