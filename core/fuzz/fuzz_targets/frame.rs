@@ -84,9 +84,9 @@ enum ConfigSpec {
         min_cylinder_px: f32,
         end_weight: f32,
         /// Every scalar tunable of the silhouette stage, in its field order.
-        silhouette: [f32; 14],
+        silhouette: [f32; 15],
         /// The fade bridge's tunables, in their field order (None: not looked for).
-        fade_bridge: Option<[f32; 3]>,
+        fade_bridge: Option<[f32; 4]>,
         /// The follow's tunables, in their field order (None: not followed).
         follow: Option<[f32; 5]>,
         /// Every tunable of the uncertainties, in their field order.
@@ -276,6 +276,7 @@ fn config(spec: &ConfigSpec) -> Config {
                     onset_diameters: a[0],
                     min_plume_area: a[1],
                     min_fill_diameters: a[2],
+                    max_contrast_sigmas: a[3],
                 }),
                 follow: follow.map(|a| FollowConfig {
                     stretch_diameters: a[0],
@@ -286,6 +287,7 @@ fn config(spec: &ConfigSpec) -> Config {
                 }),
                 remeasure_length: s[12],
                 diameter_tolerance: s[13],
+                narrow_band_max_contrast_sigmas: s[14],
             },
             table_match: MatchConfig {
                 section_bin_px,

@@ -72,6 +72,14 @@ pub struct SilhouetteConfig {
     /// diameter stays within this factor of the body's narrowest and widest diameter over the
     /// middle of its length.
     pub diameter_tolerance: f32,
+    /// The width profile sums a band across the axis as wide as the fins' span; where detection
+    /// follows the sky beside the body (the tiles' sky is cluttered there:
+    /// [`crate::segment::background::Background::follows_corridor`]) and the body's contrast is
+    /// at most this many noise sigmas, the band is the body's own width. A sky error of a few
+    /// grey levels summed over the fins' band reads as many px of width on a faint body (a
+    /// filament beside a 7-px body at 2.6 sigmas: -5 to -15 px of width where the body plainly
+    /// shows), more than its few fin pixels are worth.
+    pub narrow_band_max_contrast_sigmas: f32,
 }
 
 impl SilhouetteConfig {
@@ -96,6 +104,7 @@ impl SilhouetteConfig {
         follow: Some(FollowConfig::DEFAULT),
         remeasure_length: 1.3,
         diameter_tolerance: 1.3,
+        narrow_band_max_contrast_sigmas: 5.0,
     };
 }
 
@@ -338,7 +347,16 @@ fn measure_on(
         (None, None) => return Err(ExtremesError::NoCrossSection),
     };
     let d = section.diameter_px;
-    let band = 0.5 * d * model.max_radius_m() / model.radius_m() + 2.0 * section.sigma_px + 1.0;
+    // The band holds the fins' span, but a faint body's where the sky beside it is cluttered
+    // (`narrow_band_max_contrast_sigmas`).
+    let narrow = background.follows_corridor()
+        && section.contrast <= config.narrow_band_max_contrast_sigmas * background.sigma();
+    let span = if narrow {
+        1.0
+    } else {
+        model.max_radius_m() / model.radius_m()
+    };
+    let band = 0.5 * d * span + 2.0 * section.sigma_px + 1.0;
     let reach = 1.3 * half_length + 4.0 * section.sigma_px + 8.0;
     // Where the body's size is expected, the profile reaches as far as the body can from
     // wherever its middle was found, and the ends found walking out go on where more of the body
