@@ -676,12 +676,15 @@ impl<
             |m: &Moments| libm::fabsf(m.sum_residual) / (sigma.max(1e-3) * libm::sqrtf(m.n as f32));
         self.labeler
             .components()
-            .map(|(_, m)| m)
-            .filter(|m| m.class == other)
-            .max_by(|a, b| libm::fabsf(a.sum_residual).total_cmp(&libm::fabsf(b.sum_residual)))
-            .filter(|m| significance(m) >= bar_config.plume_min_sigma)
-            .map(Shape::of)
-            .filter(|p| 2.0 * UNIFORM_BAR_HALF_SDS * p.major_sd <= longest_px)
+            .map(|(_, m)| (m, Shape::of(m)))
+            .filter(|(m, p)| {
+                m.class == other && 2.0 * UNIFORM_BAR_HALF_SDS * p.major_sd <= longest_px
+            })
+            .max_by(|(a, _), (b, _)| {
+                libm::fabsf(a.sum_residual).total_cmp(&libm::fabsf(b.sum_residual))
+            })
+            .filter(|(m, _)| significance(m) >= bar_config.plume_min_sigma)
+            .map(|(_, p)| p)
     }
 
     /// The selection score of `bar` as the body ([`select`]'s terms: its significance, its
@@ -1143,6 +1146,62 @@ mod tests {
                 && (target.shape.centre.x - 79.5).abs() < 1.0,
             "{:?}",
             target.shape
+        );
+    }
+
+    /// A bright cloud band across the whole chip (rows 10-29, 40 grey levels up) outweighs a
+    /// compact plume (14 x 6 px, 90 up) beside a dark bar: the plume is still the chip's plume,
+    /// the band being longer than the body can look.
+    #[test]
+    fn the_plume_is_found_beside_a_brighter_cloud_band() {
+        let (w, h) = (160usize, 128usize);
+        let mut data = [100u8; 160 * 128];
+        for (i, v) in data.iter_mut().enumerate() {
+            let (x, y) = (i % w, i / w);
+            *v = if (10..30).contains(&y) {
+                140
+            } else if (70..76).contains(&y) && (40..100).contains(&x) {
+                40
+            } else if (70..76).contains(&y) && (100..114).contains(&x) {
+                190
+            } else {
+                100
+            };
+            *v = v.wrapping_add((i * 7 % 5) as u8);
+        }
+        let chip = ChipView::gray8(&data, w, h, w, 0, 0).unwrap();
+        let config = DetectConfig::DEFAULT;
+        let mut segmenter: Segmenter = Segmenter::new();
+        segmenter
+            .detect(
+                &chip,
+                &config,
+                ImagePoint::new(80.0, 64.0),
+                &Expectation::NONE,
+            )
+            .unwrap();
+        let band_sum = |m: &Moments| libm::fabsf(m.sum_residual);
+        let brightest = segmenter
+            .labeler
+            .components()
+            .map(|(_, m)| m)
+            .filter(|m| m.class > 0)
+            .max_by(|a, b| band_sum(a).total_cmp(&band_sum(b)))
+            .map(Shape::of)
+            .expect("bright components");
+        assert!(
+            (10.0..30.0).contains(&brightest.centre.y)
+                && 2.0 * UNIFORM_BAR_HALF_SDS * brightest.major_sd > 100.0,
+            "the band is the most significant bright component: {brightest:?}"
+        );
+        let sigma = segmenter.background.sigma();
+        let bar_config = config.bar.expect("the bar search's settings");
+        let plume = segmenter
+            .plume(BodyPolarity::Dark, sigma, 100.0, &bar_config)
+            .expect("the plume");
+        assert!(
+            (plume.centre.x - 106.5).abs() < 1.5 && (plume.centre.y - 72.5).abs() < 1.5,
+            "{plume:?}"
         );
     }
 
