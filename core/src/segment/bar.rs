@@ -22,9 +22,11 @@
 //!    terrain) for longer than a filament is wide, which gives its ends and length, so that a
 //!    band or filament longer than the body, or one that runs into the chip's edge, is refused;
 //!    and the glow of a plume of the other polarity just beyond an end is measured.
-//! 4. Where the chip has a plume, the bar that ends at it is measured too
-//!    ([`BarSearch::measure_from`]): of the lines that start at the plume's edge, the one of
-//!    highest contrast. A faint body's own response can be lost among a cloud's, but its plume
+//! 4. Where the chip has a plume, the bars that end at it are measured too
+//!    ([`BarSearch::measure_from`]): of the lines that start at the plume's edge, the
+//!    [`PLUME_DIRECTIONS`] of highest contrast among their neighbours, for the selection to
+//!    judge (a dark cloud band's edge beside the plume can outdo a faint body's line by contrast
+//!    alone, not by its width). A faint body's own response can be lost among a cloud's, but its plume
 //!    is the brightest thing in the chip and marks where its tail is: the bar reaches on to the
 //!    plume's edge where its tail faded under the glow, and where it runs on beyond the body's
 //!    length (into a cloud past the nose) it is the body over the integration length.
@@ -38,6 +40,9 @@ pub const MAX_DIRECTIONS: usize = 64;
 
 /// Largest number of candidate bars kept.
 pub const MAX_BARS: usize = 8;
+
+/// Directions from a plume measured as bars ([`BarSearch::measure_from`]).
+pub const PLUME_DIRECTIONS: usize = 3;
 
 /// Largest number of peaks (strongest responses, apart) measured as bars.
 const MAX_PEAKS: usize = 24;
@@ -296,9 +301,12 @@ impl<const CELLS: usize> BarSearch<CELLS> {
             }
         }
         bars.sort_unstable_by(|a, b| b.significance.total_cmp(&a.significance));
-        // The plume's bar measured from the plume: it replaces the same bar measured from its
-        // middle (the plume's end is the one a faint tail's walk misses), else the weakest.
-        if let Some(bar) = plume.and_then(|p| self.measure_from(p, config).ok()) {
+        // The plume's bars measured from the plume, the few strongest directions: each replaces
+        // the same bar measured from its middle (the plume's end is the one a faint tail's walk
+        // misses), else the weakest.
+        let from_plume = (0..PLUME_DIRECTIONS)
+            .filter_map(|rank| plume.and_then(|p| self.measure_from(p, rank, config).ok()));
+        for bar in from_plume {
             match bars
                 .iter_mut()
                 .find(|b| same_bar(b, &bar, scale.diameter_px))
@@ -316,24 +324,47 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         }
     }
 
-    /// The bar that ends at `plume` in the prepared chip ([`BarSearch::prepare`]): of the
-    /// directions all round the plume, the line of the integration length that starts at the
-    /// plume's edge with the highest mean contrast, refined and measured as the search's.
-    pub fn measure_from(&self, plume: &Shape, config: &BarConfig) -> Result<Bar, BarRefusal> {
+    /// A bar that ends at `plume` in the prepared chip ([`BarSearch::prepare`]): of the
+    /// directions all round the plume, the lines of the integration length that start at the
+    /// plume's edge, those whose mean contrast is highest among their neighbours'; the one of
+    /// rank `rank` by that contrast (0: the highest), refined and measured as the search's.
+    pub fn measure_from(
+        &self,
+        plume: &Shape,
+        rank: usize,
+        config: &BarConfig,
+    ) -> Result<Bar, BarRefusal> {
         let scale = self.scale.as_ref().ok_or(BarRefusal::NotPrepared)?;
         let directions = 2 * scale.directions();
-        let mut best: Option<(f32, ImagePoint, ImagePoint)> = None;
-        for k in 0..directions {
-            let angle = 2.0 * core::f32::consts::PI * k as f32 / directions as f32;
+        let line = |k: usize| {
+            let angle = 2.0 * core::f32::consts::PI * (k % directions) as f32 / directions as f32;
             let dir = ImagePoint::new(libm::cosf(angle), libm::sinf(angle));
             let centre = plume.centre + dir * (plume.reach_along(dir) + 0.5 * scale.length_px);
-            if let Some(c) = self.line_contrast(centre, dir, scale)
-                && best.is_none_or(|(b, _, _)| c > b)
-            {
-                best = Some((c, centre, dir));
+            (self.line_contrast(centre, dir, scale), centre, dir)
+        };
+        // The strongest local maxima of the contrast round the plume, strongest first.
+        let mut peaks: heapless::Vec<(f32, ImagePoint, ImagePoint), PLUME_DIRECTIONS> =
+            heapless::Vec::new();
+        for k in 0..directions {
+            let (Some(c), centre, dir) = line(k) else {
+                continue;
+            };
+            let neighbours = [line(k + directions - 1).0, line(k + 1).0];
+            if neighbours.iter().flatten().any(|n| *n > c) {
+                continue;
+            }
+            let at = peaks
+                .iter()
+                .position(|(p, _, _)| c > *p)
+                .unwrap_or(peaks.len());
+            if at < PLUME_DIRECTIONS {
+                if peaks.is_full() {
+                    peaks.pop();
+                }
+                let _ = peaks.insert(at, (c, centre, dir));
             }
         }
-        let (_, centre, dir) = best.ok_or(BarRefusal::NoContrast)?;
+        let (_, centre, dir) = *peaks.get(rank).ok_or(BarRefusal::NoContrast)?;
         let (centre, dir) = self.refine(centre, dir, scale);
         // The plume marks the tail, so a line that runs on beyond the body's length from it
         // (into a cloud or a filament past the nose) is the body over the integration length.
@@ -987,8 +1018,50 @@ mod tests {
                 && (35.0..=62.0).contains(&bar.half_length_px)
                 && bar.plume_sigma >= config.plume_min_sigma
         };
-        let from_plume = search.measure_from(&plume, &config).expect("a bar");
+        let from_plume = search.measure_from(&plume, 0, &config).expect("a bar");
         assert!(is_body(&from_plume), "{from_plume:?}");
+        let mut bars = heapless::Vec::new();
+        search.search(&config, Some(&plume), &mut bars);
+        assert!(bars.iter().any(is_body), "{bars:?}");
+    }
+
+    /// A filament twice as dark as the faint body (16 grey levels, 7 px wide) runs 100 px
+    /// down from its plume: the line of highest contrast from the plume is the
+    /// filament's, the body's comes next, and the search given the plume has the body's bar.
+    #[test]
+    fn the_bars_from_the_plume_hold_the_body_beside_a_darker_filament() {
+        let (mut data, centre, dir) = chip_with(8.0, 0.0, 1.0);
+        let plume_at = centre - dir * 63.0;
+        let spur_end = plume_at + ImagePoint::new(0.0, 1.0) * 100.0;
+        for (i, v) in data.iter_mut().enumerate() {
+            let (x, y) = (i % SIDE, i / SIDE);
+            let dark = 16.0 * coverage(x, y, plume_at, spur_end, 3.5);
+            *v = (f32::from(*v) - dark).clamp(0.0, 255.0) as u8;
+        }
+        let chip = ChipView::gray8(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        let config = BarConfig::DEFAULT;
+        let mut search: BarSearch<4096> = BarSearch::new();
+        assert!(search.prepare(&chip, 3.0, -1.0, &expected(), 160.0, &config));
+        let plume = Shape {
+            centre: plume_at,
+            axis: ImagePoint::new(1.0, 0.0),
+            major_sd: 4.0,
+            minor_sd: 4.0,
+        };
+        let is_body = |bar: &Bar| {
+            let across = (bar.centre - centre).dot(dir.perpendicular());
+            libm::fabsf(bar.dir.dot(dir)) > libm::cosf(6f32.to_radians())
+                && libm::fabsf(across) < 3.0
+        };
+        let strongest = search.measure_from(&plume, 0, &config).expect("a bar");
+        assert!(
+            libm::fabsf(strongest.dir.y) > libm::cosf(6f32.to_radians()),
+            "the filament's: {strongest:?}"
+        );
+        let ranked: heapless::Vec<Bar, PLUME_DIRECTIONS> = (0..PLUME_DIRECTIONS)
+            .filter_map(|rank| search.measure_from(&plume, rank, &config).ok())
+            .collect();
+        assert!(ranked.iter().any(is_body), "{ranked:?}");
         let mut bars = heapless::Vec::new();
         search.search(&config, Some(&plume), &mut bars);
         assert!(bars.iter().any(is_body), "{bars:?}");
@@ -1053,7 +1126,7 @@ mod tests {
                 }
                 walked => assert_eq!(walked, Err(BarRefusal::TooLong), "runs on {runs_on}"),
             }
-            let bar = search.measure_from(&glow, &config).expect("a bar");
+            let bar = search.measure_from(&glow, 0, &config).expect("a bar");
             assert!(
                 libm::fabsf(bar.dir.dot(dir)) > libm::cosf(6f32.to_radians()),
                 "{bar:?}"
