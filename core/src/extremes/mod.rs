@@ -463,8 +463,7 @@ fn measure_on(
     // The tip lies ahead of the half-width point by at most the model's nose (tip to full
     // diameter) and the blur; a filament along the nose line once put it 330 px beyond a 113-px
     // body.
-    let nose_reach_px =
-        model.cylinder_s().0.min(model.length_m) / model.diameter_m * d + 2.0 * section.sigma_px;
+    let nose_reach_px = model.nose_length_m() / model.diameter_m * d + 2.0 * section.sigma_px;
     let nose_t = profile.nose_tip(
         nose_outer,
         nose_inward,
@@ -538,8 +537,8 @@ fn measure_on(
 ///
 /// In either case the nose is where the model's silhouette from the tail best fits the profile
 /// ([`orientation::nose_by_model`], at the body's expected diameter and its contrast along the
-/// axis, `local()`: made only where the ends are read again). None where neither holds, the body is not faint, or its diameter is not
-/// expected.
+/// axis, `local()`: made only where the ends are read again). None where neither holds, the
+/// body is not faint, or its diameter is not expected.
 #[allow(clippy::too_many_arguments)]
 fn ends_by_model<'a>(
     profile: &WidthProfile,

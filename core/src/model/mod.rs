@@ -262,6 +262,11 @@ impl<'a> ProjectileModel<'a> {
         (start.unwrap_or(self.length_m), end)
     }
 
+    /// The nose's length, from the tip to where the body reaches its full diameter, m.
+    pub fn nose_length_m(&self) -> f32 {
+        self.cylinder_s.0.min(self.length_m)
+    }
+
     /// Where a straight line fitted to the nose's silhouette width, between `lo` and `hi` of the
     /// body diameter, reaches zero width: metres aft of the true tip (negative: ahead of it).
     /// A convex nose extrapolates slightly ahead of its tip; the closed form uses this to correct
@@ -270,7 +275,7 @@ impl<'a> ProjectileModel<'a> {
         // Least-squares line w(s) over uniform samples of s where lo <= w/D <= hi, over the nose
         // (the profile up to the full diameter).
         const SAMPLES: usize = 200;
-        let nose_length = self.cylinder_s.0.min(self.length_m);
+        let nose_length = self.nose_length_m();
         let (mut n, mut ss, mut sw, mut sss, mut ssw) = (0.0f32, 0.0, 0.0, 0.0, 0.0);
         for i in 0..SAMPLES {
             let s = nose_length * (i as f32 + 0.5) / SAMPLES as f32;

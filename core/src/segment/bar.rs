@@ -26,10 +26,11 @@
 //!    ([`BarSearch::measure_from`]): of the lines that start at the plume's edge, the
 //!    [`PLUME_DIRECTIONS`] of highest contrast among their neighbours, for the selection to
 //!    judge (a dark cloud band's edge beside the plume can outdo a faint body's line by contrast
-//!    alone, not by its width). A faint body's own response can be lost among a cloud's, but its plume
-//!    is the brightest thing in the chip and marks where its tail is: the bar reaches on to the
-//!    plume's edge where its tail faded under the glow, and where it runs on beyond the body's
-//!    length (into a cloud past the nose) it is the body over the integration length.
+//!    alone, not by its width). A faint body's own response can be lost among a cloud's, but
+//!    its plume is the brightest thing in the chip and marks where its tail is: the bar reaches
+//!    on to the plume's edge where its tail faded under the glow, and where it runs on beyond
+//!    the body's length (into a cloud past the nose) it is the body over the integration
+//!    length.
 
 use super::select::{ExpectedBody, Shape};
 use crate::chip::ChipView;
@@ -304,9 +305,8 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         // The plume's bars measured from the plume, the few strongest directions: each replaces
         // the same bar measured from its middle (the plume's end is the one a faint tail's walk
         // misses), else the weakest.
-        let from_plume = (0..PLUME_DIRECTIONS)
-            .filter_map(|rank| plume.and_then(|p| self.measure_from(p, rank, config).ok()));
-        for bar in from_plume {
+        let from_plume = plume.and_then(|p| self.measure_from(p, config).ok());
+        for bar in from_plume.into_iter().flatten().flatten() {
             match bars
                 .iter_mut()
                 .find(|b| same_bar(b, &bar, scale.diameter_px))
@@ -324,47 +324,72 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         }
     }
 
-    /// A bar that ends at `plume` in the prepared chip ([`BarSearch::prepare`]): of the
+    /// The bars that end at `plume` in the prepared chip ([`BarSearch::prepare`]): of the
     /// directions all round the plume, the lines of the integration length that start at the
-    /// plume's edge, those whose mean contrast is highest among their neighbours'; the one of
-    /// rank `rank` by that contrast (0: the highest), refined and measured as the search's.
+    /// plume's edge and whose mean contrast is highest among their neighbours', the
+    /// [`PLUME_DIRECTIONS`] strongest (strongest first), each refined and measured as the
+    /// search's. Err where no chip is prepared or no line has a contrast.
     pub fn measure_from(
         &self,
         plume: &Shape,
-        rank: usize,
         config: &BarConfig,
-    ) -> Result<Bar, BarRefusal> {
+    ) -> Result<heapless::Vec<Result<Bar, BarRefusal>, PLUME_DIRECTIONS>, BarRefusal> {
         let scale = self.scale.as_ref().ok_or(BarRefusal::NotPrepared)?;
         let directions = 2 * scale.directions();
         let line = |k: usize| {
-            let angle = 2.0 * core::f32::consts::PI * (k % directions) as f32 / directions as f32;
+            let angle = 2.0 * core::f32::consts::PI * k as f32 / directions as f32;
             let dir = ImagePoint::new(libm::cosf(angle), libm::sinf(angle));
             let centre = plume.centre + dir * (plume.reach_along(dir) + 0.5 * scale.length_px);
-            (self.line_contrast(centre, dir, scale), centre, dir)
+            (centre, dir)
         };
+        // Each line's mean contrast, once (NaN where it leaves the grid).
+        let mut contrast = [f32::NAN; 2 * MAX_DIRECTIONS];
+        for (k, c) in contrast.iter_mut().take(directions).enumerate() {
+            let (centre, dir) = line(k);
+            *c = self.line_contrast(centre, dir, scale).unwrap_or(f32::NAN);
+        }
+        let contrast_of = |k: usize| contrast.get(k % directions).copied().unwrap_or(f32::NAN);
         // The strongest local maxima of the contrast round the plume, strongest first.
-        let mut peaks: heapless::Vec<(f32, ImagePoint, ImagePoint), PLUME_DIRECTIONS> =
-            heapless::Vec::new();
+        let mut peaks: heapless::Vec<(f32, usize), PLUME_DIRECTIONS> = heapless::Vec::new();
         for k in 0..directions {
-            let (Some(c), centre, dir) = line(k) else {
-                continue;
-            };
-            let neighbours = [line(k + directions - 1).0, line(k + 1).0];
-            if neighbours.iter().flatten().any(|n| *n > c) {
+            let c = contrast_of(k);
+            let neighbours = [contrast_of(k + directions - 1), contrast_of(k + 1)];
+            if c.is_nan() || neighbours.iter().any(|n| *n > c) {
                 continue;
             }
             let at = peaks
                 .iter()
-                .position(|(p, _, _)| c > *p)
+                .position(|(p, _)| c > *p)
                 .unwrap_or(peaks.len());
             if at < PLUME_DIRECTIONS {
                 if peaks.is_full() {
                     peaks.pop();
                 }
-                let _ = peaks.insert(at, (c, centre, dir));
+                let _ = peaks.insert(at, (c, k));
             }
         }
-        let (_, centre, dir) = *peaks.get(rank).ok_or(BarRefusal::NoContrast)?;
+        if peaks.is_empty() {
+            return Err(BarRefusal::NoContrast);
+        }
+        Ok(peaks
+            .iter()
+            .map(|&(_, k)| {
+                let (centre, dir) = line(k);
+                self.measure_line_from(plume, centre, dir, scale, config)
+            })
+            .collect())
+    }
+
+    /// The bar along the line from `plume` through `centre` along `dir`, refined and measured
+    /// as the search's, reaching on to the plume.
+    fn measure_line_from(
+        &self,
+        plume: &Shape,
+        centre: ImagePoint,
+        dir: ImagePoint,
+        scale: &Scale,
+        config: &BarConfig,
+    ) -> Result<Bar, BarRefusal> {
         let (centre, dir) = self.refine(centre, dir, scale);
         // The plume marks the tail, so a line that runs on beyond the body's length from it
         // (into a cloud or a filament past the nose) is the body over the integration length.
@@ -944,6 +969,12 @@ mod tests {
         (data, centre, dir)
     }
 
+    /// The bar along the strongest line from `plume` ([`BarSearch::measure_from`]).
+    fn strongest_from(search: &BarSearch<4096>, plume: &Shape, config: &BarConfig) -> Bar {
+        let bars = search.measure_from(plume, config).expect("lines");
+        bars.first().copied().expect("a line").expect("a bar")
+    }
+
     fn expected() -> ExpectedBody {
         ExpectedBody {
             diameter_px: 7.0,
@@ -1018,7 +1049,7 @@ mod tests {
                 && (35.0..=62.0).contains(&bar.half_length_px)
                 && bar.plume_sigma >= config.plume_min_sigma
         };
-        let from_plume = search.measure_from(&plume, 0, &config).expect("a bar");
+        let from_plume = strongest_from(&search, &plume, &config);
         assert!(is_body(&from_plume), "{from_plume:?}");
         let mut bars = heapless::Vec::new();
         search.search(&config, Some(&plume), &mut bars);
@@ -1053,15 +1084,13 @@ mod tests {
             libm::fabsf(bar.dir.dot(dir)) > libm::cosf(6f32.to_radians())
                 && libm::fabsf(across) < 3.0
         };
-        let strongest = search.measure_from(&plume, 0, &config).expect("a bar");
+        let strongest = strongest_from(&search, &plume, &config);
         assert!(
             libm::fabsf(strongest.dir.y) > libm::cosf(6f32.to_radians()),
             "the filament's: {strongest:?}"
         );
-        let ranked: heapless::Vec<Bar, PLUME_DIRECTIONS> = (0..PLUME_DIRECTIONS)
-            .filter_map(|rank| search.measure_from(&plume, rank, &config).ok())
-            .collect();
-        assert!(ranked.iter().any(is_body), "{ranked:?}");
+        let ranked = search.measure_from(&plume, &config).expect("lines");
+        assert!(ranked.iter().flatten().any(is_body), "{ranked:?}");
         let mut bars = heapless::Vec::new();
         search.search(&config, Some(&plume), &mut bars);
         assert!(bars.iter().any(is_body), "{bars:?}");
@@ -1126,7 +1155,7 @@ mod tests {
                 }
                 walked => assert_eq!(walked, Err(BarRefusal::TooLong), "runs on {runs_on}"),
             }
-            let bar = search.measure_from(&glow, 0, &config).expect("a bar");
+            let bar = strongest_from(&search, &glow, &config);
             assert!(
                 libm::fabsf(bar.dir.dot(dir)) > libm::cosf(6f32.to_radians()),
                 "{bar:?}"

@@ -676,10 +676,9 @@ impl<
             |m: &Moments| libm::fabsf(m.sum_residual) / (sigma.max(1e-3) * libm::sqrtf(m.n as f32));
         self.labeler
             .components()
+            .filter(|(_, m)| m.class == other)
             .map(|(_, m)| (m, Shape::of(m)))
-            .filter(|(m, p)| {
-                m.class == other && 2.0 * UNIFORM_BAR_HALF_SDS * p.major_sd <= longest_px
-            })
+            .filter(|(_, p)| 2.0 * UNIFORM_BAR_HALF_SDS * p.major_sd <= longest_px)
             .max_by(|(a, _), (b, _)| {
                 libm::fabsf(a.sum_residual).total_cmp(&libm::fabsf(b.sum_residual))
             })
