@@ -10,6 +10,7 @@ use crate::capacity::{BACKGROUND_TILE, MAX_CHIP_SIDE, MAX_TILES_PER_SIDE, NOISE_
 use crate::chip::ChipView;
 use crate::extremes::{Axis, row_span};
 use crate::segment::corridor::{Corridor, CorridorShape};
+use crate::segment::terrain::{Horizon, TerrainConfig};
 
 /// Smallest noise standard deviation reported, grey levels (the quantization floor).
 const MIN_SIGMA: f32 = 0.3;
@@ -157,6 +158,58 @@ impl Background {
         }
         self.sigma = self.noise_sigma_of(chip);
         self.corridor = None;
+    }
+
+    /// Looks for terrain entering the chip from its lower edge ([`Horizon::find`], against the
+    /// sky of the top row's tiles) and, where there is some, estimates again every tile it
+    /// reaches from its pixels more than [`TerrainConfig::margin_px`] above the horizon; a tile
+    /// with less than a quarter of its pixels left takes the level of the tile above it (the
+    /// sky carried down over the terrain, which then stands out whole). Returns whether the
+    /// chip has terrain.
+    pub fn estimate_terrain(&mut self, chip: &ChipView, config: &TerrainConfig) -> bool {
+        let (tiles_x, tiles_y) = (self.tiles_x, self.tiles_y);
+        if tiles_y < 2 || tiles_x == 0 {
+            return false;
+        }
+        let mut top_row = [0.0f32; MAX_TILES_PER_SIDE];
+        let mut bottom_row = [0.0f32; MAX_TILES_PER_SIDE];
+        for tx in 0..tiles_x {
+            if let (Some(t), Some(b)) = (top_row.get_mut(tx), bottom_row.get_mut(tx)) {
+                (*t, *b) = (self.level(tx, 0), self.level(tx, tiles_y - 1));
+            }
+        }
+        let Some(top_row) = top_row.get_mut(..tiles_x) else {
+            return false;
+        };
+        let (_, sky, _) = top_row.select_nth_unstable_by(tiles_x / 2, f32::total_cmp);
+        let bottom = bottom_row.get(..tiles_x).unwrap_or_default();
+        // Only here: the tiles keep what it tells.
+        let mut horizon = Horizon::new();
+        if !horizon.find(chip, *sky, self.sigma, (bottom, BACKGROUND_TILE), config) {
+            return false;
+        }
+        let margin = usize::from(config.margin_px);
+        let sky_pixel = |x: usize, y: usize| !horizon.covers(x, y, margin);
+        for ty in 0..tiles_y {
+            for tx in 0..tiles_x {
+                let rect = self.tile_rect(tx, ty);
+                let reached = (rect.0..rect.2).any(|x| horizon.covers(x, rect.3 - 1, margin));
+                if !reached {
+                    continue;
+                }
+                let (level, kept) = tile_median(chip, rect, sky_pixel);
+                let area = (rect.2 - rect.0) * (rect.3 - rect.1);
+                let level = match ty.checked_sub(1) {
+                    _ if 4 * kept >= area => level,
+                    Some(above) => self.level(tx, above),
+                    None => continue,
+                };
+                if let Some(slot) = self.levels.get_mut(ty * tiles_x + tx) {
+                    *slot = level;
+                }
+            }
+        }
+        true
     }
 
     /// Measures the sky along a body in the corridor `shape` ([`Corridor`]) and uses it there
@@ -619,6 +672,40 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Terrain 90 grey levels darker than the sky below a ridge at rows 100-110 of a 128 px chip
+    /// (noise 2): the tiles alone give the terrain its own level and put the sky just above the
+    /// ridge between the two; with the terrain found, the sky is the sky's everywhere (carried
+    /// down over the terrain), so that the terrain stands out whole from the lower edge.
+    #[test]
+    fn terrain_from_the_lower_edge_leaves_the_sky_its_own_level() {
+        let (w, h) = (128usize, 128usize);
+        let ridge = |x: usize| 100 + (x % 20).min(20 - x % 20) / 2;
+        let mut data = [0u8; 128 * 128];
+        for (i, v) in data.iter_mut().enumerate() {
+            let (x, y) = (i % w, i / w);
+            let noise = ((i * 7919) % 5) as u8;
+            *v = if y >= ridge(x) {
+                58 + noise
+            } else {
+                148 + noise
+            };
+        }
+        let chip = ChipView::gray8(&data, w, h, w, 0, 0).unwrap();
+        let mut bg = Background::new();
+        bg.estimate(&chip);
+        let (on_terrain, above_ridge) = ((40.0, 120.0), (40.0, 96.0));
+        assert!(bg.at(on_terrain.0, on_terrain.1) < 100.0);
+        assert!(bg.at(above_ridge.0, above_ridge.1) < 140.0);
+        assert!(bg.estimate_terrain(&chip, &TerrainConfig::DEFAULT));
+        for (x, y) in [on_terrain, above_ridge, (100.0, 20.0)] {
+            let sky = bg.at(x, y);
+            assert!((sky - 150.0).abs() < 2.0, "sky at ({x},{y}) is {sky}");
+        }
+        // Found again by a fresh estimate only when asked.
+        bg.estimate(&chip);
+        assert!(bg.at(on_terrain.0, on_terrain.1) < 100.0);
     }
 
     /// The per-pixel tables are a cache: the background they give is bit for bit the direct

@@ -13,6 +13,7 @@ pub mod corridor;
 pub mod gate;
 pub mod label;
 pub mod select;
+pub mod terrain;
 
 use crate::capacity::{BAR_GRID_CELLS, DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS, MAX_COMPONENTS};
 use crate::chip::ChipView;
@@ -29,6 +30,7 @@ use label::{LabelError, Labeler, Moments, Rect};
 pub use select::UNIFORM_BAR_HALF_SDS;
 use select::{Candidate, Selection, Shape};
 pub use select::{ExpectedBody, Proportions, SizeTolerance};
+use terrain::TerrainConfig;
 
 /// The detection stage's tunables.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -93,6 +95,9 @@ pub struct DetectConfig {
     /// The sky measured along the detected body where the tiles do not follow it
     /// ([`corridor`]); None: the tiles' everywhere.
     pub corridor: Option<CorridorConfig>,
+    /// Terrain looked for along the chip's lower edge ([`terrain`]): the sky taken from above
+    /// it; None: not looked for.
+    pub terrain: Option<TerrainConfig>,
 }
 
 impl DetectConfig {
@@ -126,6 +131,7 @@ impl DetectConfig {
         bar: Some(BarConfig::DEFAULT),
         unknown_range_diameters_px: [4.0, 7.0, 12.0],
         corridor: Some(CorridorConfig::DEFAULT),
+        terrain: Some(TerrainConfig::DEFAULT),
     };
 }
 
@@ -353,6 +359,9 @@ impl<
             .reset(chip.width(), chip.height())
             .map_err(|_| SegmentError::Capacity(CapacityKind::Mask))?;
         self.background.estimate(chip);
+        if let Some(terrain) = &config.terrain {
+            self.background.estimate_terrain(chip, terrain);
+        }
         let first = self.detect_on_sky(chip, config, aim, expect, None);
         let first = self.judge_by_bar(chip, config, aim, expect, first)?;
         // A bar is the body's width by construction: the sky is not estimated again under it.
