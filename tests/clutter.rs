@@ -6,7 +6,7 @@
 use imade_host::eval::paper::Parameter;
 use imade_host::eval::pose_errors::FrameErrors;
 use imade_host::eval::stats::summarize;
-use imade_host::run::RangeArg;
+use imade_host::run::{PolarityArg, RangeArg};
 use imade_host::sim::scenario::Weather;
 use imade_host::sim::{Scenario, Simulation};
 use std::path::Path;
@@ -40,25 +40,33 @@ fn run_clutter_clip(name: &str, range: RangeArg) -> (usize, f64, f64) {
 /// A dark body of 6.4 noise deviations with a bright plume, a hillside entering from the chip's
 /// lower edge, cloud filaments and a second projectile: the candidate of the body's size, clear of
 /// the edge and of the body's polarity, or the bar of the body's width where terrain took its
-/// place, is the target (the terrain or the plume was before: no frame had a pose).
+/// place, is the target (the terrain or the plume was before: no frame had a pose). Since the
+/// sky is taken from above the terrain (`segment/terrain.rs`), the terrain stands out whole from
+/// the lower edge and its ridge is no candidate: 18 -> 20 frames with a pose, blind IoU 0.74 ->
+/// 0.79, pitch 0.28 -> 0.29 deg/km.
 #[test]
 fn terrain_and_a_plume_do_not_take_the_bodys_place() {
     let (poses, pitch, iou) = run_clutter_clip("small-clutter-terrain", RangeArg::Auto);
-    assert!(poses >= 18, "{poses} of 20 frames with a pose");
-    assert!(iou >= 0.6, "median IoU of the blind mask {iou}");
-    assert!(pitch <= 1.0, "median pitch error {pitch} deg/km");
+    assert!(poses >= 19, "{poses} of 20 frames with a pose");
+    assert!(iou >= 0.75, "median IoU of the blind mask {iou}");
+    assert!(pitch <= 0.5, "median pitch error {pitch} deg/km");
 }
 
 /// The same clip without the range: the terrain reaching the chip's edge is no candidate, and
 /// the bar search runs beside it at the sizes tried. Before, the terrain was the target in every
-/// frame and no frame had a pose (its mask reached the edge); now 17 of 20 do, the body's mask
-/// at a median IoU of 0.7, pitch 3.0 deg/km (the range read from the image in clutter is still
-/// poor: Tz 42 m/km median).
+/// frame and no frame had a pose (its mask reached the edge); at d3adc9f 18 of 20 did, the
+/// body's mask at a median IoU of 0.74, pitch 1.65 deg/km, Tz 52 m/km, the first frame's body
+/// found by the bar search because a piece of the terrain's ridge had been the component
+/// target. Now that the terrain stands out whole, the first frame's most significant component
+/// is a cloud band, which no longer stands without the bar search where no size is known; 16
+/// frames have a pose, IoU 0.62, pitch 5.3 deg/km, Tz 84 m/km: one frame's image range read off
+/// in clutter (a quarter short) carries the motion model's range, and the sizes it expects,
+/// away for the frames after it (the range read from the image in clutter is issue 15's).
 #[test]
 fn terrain_is_no_candidate_without_a_range_either() {
     let (poses, _, iou) = run_clutter_clip("small-clutter-terrain", RangeArg::Ignore);
     assert!(poses >= 15, "{poses} of 20 frames with a pose");
-    assert!(iou >= 0.6, "median IoU of the blind mask {iou}");
+    assert!(iou >= 0.55, "median IoU of the blind mask {iou}");
 }
 
 /// A faint dark body (3-5 noise deviations a pixel) with a bright plume over its tail far
@@ -157,4 +165,50 @@ fn a_faint_body_under_a_plume_keeps_its_attitude_over_three_seeds() {
             "clear {clear}: median chosen yaw {yaw} deg/km"
         );
     }
+}
+
+/// The scene of `fixtures/small-clutter-terrain` (terrain, a plume, filaments, a second
+/// object) with the body brighter than the sky instead (a sunlit body), 20 frames with the
+/// range, run with the body's polarity `polarity`: frames with a pose, median pitch error.
+fn bright_body_run(polarity: PolarityArg) -> (usize, f64) {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("bright-body");
+    let clip = dir.join("clip");
+    if !clip.join("frames.csv").exists() {
+        let file = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../fixtures/small-clutter-terrain/scenario.toml");
+        let mut scenario = Scenario::from_file(&file).expect("the scenario");
+        scenario.seed = 21;
+        scenario.randomize.bright_body_probability = Some(1.0);
+        Simulation::new(scenario)
+            .and_then(|s| s.write_clip(&clip, 2))
+            .unwrap_or_else(|e| panic!("{e:#}"));
+    }
+    let out = dir.join(format!("run-{polarity:?}"));
+    let _ = std::fs::remove_dir_all(&out);
+    let args = imade_host::run::RunArgs {
+        polarity,
+        ..imade_tests::run_args(&clip, RangeArg::Auto, &out)
+    };
+    let evaluation = imade_tests::evaluate_run(args);
+    let pitch = evaluation
+        .pose
+        .stats(Parameter::Pitch)
+        .map_or(f64::NAN, |s| s.median);
+    let poses = evaluation.pose.frames_with_pose;
+    println!("bright body, --polarity {polarity:?}: {poses}/20 poses, median pitch {pitch:.3}");
+    (poses, pitch)
+}
+
+/// A bright body is found with `--polarity bright`; taken for a dark one (the default), the
+/// second object or the cloud's shade is taken instead. Its pitch (2.8 deg/km, against 0.29 for
+/// the dark body of the same scene) is not yet the dark body's: its bright plume, of the body's
+/// own polarity, joins the body's mask and is read as its tail in about a third of the frames
+/// (issue 14, the plume of either polarity).
+#[test]
+fn a_bright_body_is_found_when_its_polarity_is_given() {
+    let (poses, pitch) = bright_body_run(PolarityArg::Bright);
+    assert!(poses >= 18, "{poses} of 20 frames with a pose");
+    assert!(pitch <= 4.0, "median pitch error {pitch} deg/km");
+    let (poses, pitch) = bright_body_run(PolarityArg::Dark);
+    assert!(poses < 18 || pitch > 5.0, "{poses} poses, pitch {pitch}");
 }

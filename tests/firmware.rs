@@ -15,7 +15,7 @@
 use anyhow::{Context, anyhow, ensure};
 use imade_core::Pipeline;
 use imade_host::pack::pack_clip;
-use imade_host::run::{RangeArg, RunArgs, run};
+use imade_host::run::{PolarityArg, RangeArg, RunArgs, run};
 use imade_pack::{TableUse, read_header, read_record, replay};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -62,6 +62,7 @@ fn check_firmware(clip: &Path, lut: &str, dir: &Path) -> anyhow::Result<()> {
     run(&RunArgs {
         lut: lut.into(),
         no_grey_fit: true,
+        polarity: PolarityArg::default(),
         ..imade_tests::run_args(&clip, RangeArg::Auto, &host_dir)
     })?;
     let host_csv = host_dir.join("results.csv");

@@ -16,6 +16,7 @@ fn attitude_errors(clip: &str, range: RangeArg, grey_fit: bool) -> (f64, f64) {
     ));
     let evaluation = imade_tests::evaluate_run(RunArgs {
         no_grey_fit: !grey_fit,
+        polarity: imade_host::run::PolarityArg::default(),
         ..imade_tests::run_args(&root.join("fixtures").join(clip), range, &out)
     });
     let pose = &evaluation.pose;

@@ -61,6 +61,7 @@ pub fn run_args(
         range_smoothing: imade_host::run::SmoothingArg::default(),
         smooth: false,
         no_grey_fit: false,
+        polarity: imade_host::run::PolarityArg::default(),
     }
 }
 

@@ -221,13 +221,17 @@ impl Temporal {
 
     /// What the state tells the frame captured at `time_s` (s, any origin) before its image
     /// work. A frame not after the last one, or after a gap longer than `config.max_gap_s`,
-    /// resets the state first.
+    /// resets the state first. The range is predicted only within `config.max_gap_s` of the
+    /// window's last range: frames without one (no pose, no sensor) leave the trend's
+    /// extrapolation to grow without a check, and a wrong prediction would keep the body, no
+    /// longer of its size, from being found again.
     pub fn predict(&mut self, time_s: f64, config: &TemporalConfig) -> Prediction {
         let t = self.frame_time(time_s, config);
         let slope = self.trend().map_or(0.0, |tr| tr.slope);
         let range_m = self
             .window
             .back()
+            .filter(|last| t - last.t <= config.max_gap_s)
             .map(|last| last.range + slope * (t - last.t))
             .filter(|r| r.is_finite() && *r > 0.0);
         Prediction {

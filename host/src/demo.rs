@@ -15,7 +15,7 @@
 use crate::clip::{Clip, write_atomically};
 use crate::eval::{Evaluation, evaluate, report, write_reports};
 use crate::plot::plot_all;
-use crate::run::{Job, RangeArg, outcome, run_jobs};
+use crate::run::{Job, PolarityArg, RangeArg, outcome, run_jobs};
 use anyhow::Context;
 use std::path::PathBuf;
 
@@ -53,6 +53,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             range_smoothing: crate::run::SmoothingArg::default(),
             smooth: false,
             grey_fit: true,
+            polarity: PolarityArg::default(),
         })
         .collect();
     eprintln!(

@@ -12,7 +12,7 @@
 //! the stations each row stands on.
 
 use crate::clip::{Clip, FrameRow, ResultRow, read_results, write_atomically};
-use crate::run::{Job, RangeArg, RefineChoice, SmoothingArg, run_jobs};
+use crate::run::{Job, PolarityArg, RangeArg, RefineChoice, SmoothingArg, run_jobs};
 use crate::smooth::centred_velocity;
 use anyhow::{Context, bail, ensure};
 use imade_core::pose::{Pose, attitude_of};
@@ -107,6 +107,7 @@ pub fn run(args: &FuseArgs) -> anyhow::Result<()> {
             range_smoothing: SmoothingArg::MotionModel,
             smooth: false,
             grey_fit: true,
+            polarity: PolarityArg::default(),
         })
         .collect();
     let summary = run_jobs(&jobs);

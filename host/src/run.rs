@@ -9,7 +9,8 @@ use crate::summary::{ClipSummary, Problem, RunSummary, SUMMARY_FORMAT};
 use anyhow::{Context, bail};
 use imade_core::world::Position;
 use imade_core::{
-    Config, FrameInput, GuidedMethod, Pipeline, RangeSmoothing, RangeUse, Status, results,
+    BodyPolarity, Config, FrameInput, GuidedMethod, Pipeline, RangeSmoothing, RangeUse, Status,
+    results,
 };
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -69,6 +70,30 @@ impl SmoothingArg {
     }
 }
 
+/// The body's contrast polarity against the sky, as chosen with `--polarity`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum PolarityArg {
+    /// Darker than the sky (a body against a bright sky: the usual case, and the source paper's).
+    #[default]
+    Dark,
+    /// Brighter than the sky (a sunlit body against a darker sky or cloud).
+    Bright,
+    /// Either: the more elongated candidate wins. For clean skies only: beside a plume of the
+    /// other polarity the plume can win.
+    Either,
+}
+
+impl PolarityArg {
+    /// The core's choice (None: either).
+    fn polarity(self) -> Option<BodyPolarity> {
+        match self {
+            PolarityArg::Dark => Some(BodyPolarity::Dark),
+            PolarityArg::Bright => Some(BodyPolarity::Bright),
+            PolarityArg::Either => None,
+        }
+    }
+}
+
 /// The shape-guided loop's method as chosen with `--refine`: a method, or none.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RefineChoice(pub Option<GuidedMethod>);
@@ -97,6 +122,7 @@ fn job_config(job: &Job) -> Config {
     let mut config = job.range.config().with_guided_method(job.refine.0);
     config.temporal.range_smoothing = job.range_smoothing.smoothing();
     config.grey_fit.enabled = job.grey_fit;
+    config.detect.polarity = job.polarity.polarity();
     config
 }
 
@@ -140,6 +166,10 @@ pub struct RunArgs {
     /// firmware, which does not run the fit yet.
     #[arg(long)]
     pub no_grey_fit: bool,
+    /// The body's contrast polarity against the sky: `dark` (darker than the sky), `bright`
+    /// (brighter: sunlit against a darker background) or `either` (clean skies only).
+    #[arg(long, value_enum, default_value = "dark")]
+    pub polarity: PolarityArg,
 }
 
 /// One clip to process and where its results go.
@@ -163,6 +193,8 @@ pub struct Job {
     pub smooth: bool,
     /// Run the grey-level fit (see [`RunArgs::no_grey_fit`]).
     pub grey_fit: bool,
+    /// The body's polarity (see [`RunArgs::polarity`]).
+    pub polarity: PolarityArg,
 }
 
 /// Runs `imade run`. Every clip is processed independently; the outcome is an error carrying
@@ -225,6 +257,7 @@ fn plan(args: &RunArgs) -> anyhow::Result<Vec<Job>> {
             range_smoothing: args.range_smoothing,
             smooth: args.smooth,
             grey_fit: !args.no_grey_fit,
+            polarity: args.polarity,
         })
         .collect();
     for (i, job) in jobs.iter().enumerate() {
@@ -508,6 +541,7 @@ mod tests {
             range_smoothing: SmoothingArg::default(),
             smooth: false,
             no_grey_fit: false,
+            polarity: PolarityArg::default(),
         })?;
         let poses = std::fs::read_to_string(out.join("results.csv"))?
             .lines()

@@ -41,6 +41,10 @@ pub struct TerrainConfig {
     pub edge_px: u16,
     /// ... in at least this fraction of the columns that have terrain.
     pub min_sharp_fraction: f32,
+    /// In at least this fraction of the columns that have terrain, the horizon lies below the
+    /// chip's middle row: the mount keeps the projectile, in the sky, near the chip's middle
+    /// (the sky below a bright cloud band high in the chip is no terrain).
+    pub min_low_fraction: f32,
 }
 
 impl TerrainConfig {
@@ -53,6 +57,7 @@ impl TerrainConfig {
         edge_fraction: 0.7,
         edge_px: 5,
         min_sharp_fraction: 0.5,
+        min_low_fraction: 0.5,
     };
 }
 
@@ -143,7 +148,7 @@ impl Horizon {
         };
         let gap = usize::from(config.gap_px.max(1));
         let edge = usize::from(config.edge_px);
-        let (mut with_terrain, mut sharp) = (0usize, 0usize);
+        let (mut with_terrain, mut sharp, mut low) = (0usize, 0usize, 0usize);
         for (x, top) in self.top.iter_mut().enumerate().take(self.width) {
             let mut highest = height;
             for y in (0..height).rev() {
@@ -156,6 +161,7 @@ impl Horizon {
             *top = u16::try_from(highest).unwrap_or(u16::MAX);
             if highest < height {
                 with_terrain += 1;
+                low += usize::from(2 * highest >= height);
                 let above = highest.checked_sub(edge).and_then(|y| way(x, y));
                 let below = way(x, highest + edge + 2);
                 // A column whose terrain ends within the edge's reach of the chip's bottom has
@@ -166,8 +172,10 @@ impl Horizon {
                 }
             }
         }
-        self.present =
-            with_terrain > 0 && sharp as f32 >= config.min_sharp_fraction * with_terrain as f32;
+        let share = |count: usize| count as f32 / with_terrain.max(1) as f32;
+        self.present = with_terrain > 0
+            && share(sharp) >= config.min_sharp_fraction
+            && share(low) >= config.min_low_fraction;
         self.present
     }
 }
@@ -280,5 +288,22 @@ mod tests {
         let stepped = chip_with_ridge(|_| 40);
         let chip = ChipView::gray8(&stepped, SIDE, SIDE, SIDE, 0, 0).unwrap();
         assert!(horizon.find(&chip, 150.0, 2.0, (&bottom_levels(&stepped), 32), &config));
+    }
+
+    #[test]
+    fn the_sky_below_a_bright_band_high_in_the_chip_is_not_terrain() {
+        // Sky of 60 below a sharp band of 150 at rows 0-19: the lower edge is 45 sigmas darker
+        // than the top row and its edge sharp, but high above the chip's middle.
+        let pixels = chip_with_ridge(|_| 20);
+        let chip = ChipView::gray8(&pixels, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        let mut horizon = Horizon::new();
+        let levels = bottom_levels(&pixels);
+        let config = TerrainConfig::DEFAULT;
+        assert!(!horizon.find(&chip, 150.0, 2.0, (&levels, 32), &config));
+        let anywhere = TerrainConfig {
+            min_low_fraction: 0.0,
+            ..config
+        };
+        assert!(horizon.find(&chip, 150.0, 2.0, (&levels, 32), &anywhere));
     }
 }
