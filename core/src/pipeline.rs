@@ -35,7 +35,7 @@ use crate::table_match::{MatchedPose, Measurement, TableMatch};
 use crate::temporal::{Estimate, Observation, Prediction, Temporal, YawChoice};
 use crate::track::Track;
 use crate::uncertainty::{self, AngleVariance, EndSd};
-use crate::world::{Motion, Mount, Side, Station, WorldStage};
+use crate::world::{self, Motion, Mount, Side, Station, WorldStage};
 
 /// A frame's input, checked: the range to use and the camera valid.
 struct CheckedInput<'a> {
@@ -355,6 +355,7 @@ impl<
         let prior = extremes::Prior {
             nose_dir,
             diameter_px: expected.map(|e| e.diameter_px),
+            flight_dir: self.flight_in_chip(input),
         };
         let silhouette = self.silhouette(chip, &target, &prior)?;
         let target = self
@@ -396,6 +397,28 @@ impl<
             .ok();
         }
         Ok((target, measurement))
+    }
+
+    /// The direction in which the body flies across the chip of `input`, where the frame comes
+    /// with the mount's pointing and the recent frames' positions give a velocity at its time
+    /// ([`WorldStage::velocity_ahead`]) far enough across the line of sight through the chip's
+    /// middle ([`world::flight_in_chip`]).
+    fn flight_in_chip(&self, input: &CheckedInput) -> Option<ImagePoint> {
+        let config = &self.config.world;
+        let mount = input.mount?;
+        let velocity = self.world.velocity_ahead(input.time_s, config)?;
+        let chip = input.chip;
+        let middle = ImagePoint::new(
+            chip.x0() as f32 + 0.5 * chip.width() as f32,
+            chip.y0() as f32 + 0.5 * chip.height() as f32,
+        );
+        world::flight_in_chip(
+            &velocity,
+            &mount,
+            &self.camera,
+            middle,
+            config.min_flight_across,
+        )
     }
 
     /// The body's size in the chip at `range_m` m (None for a range that gives no finite size).

@@ -20,7 +20,9 @@
 //! (the Cortex-M4F's FPU; `f64` there is software, ten times the cost): its 1e-7 of a radian
 //! is 0.2 mm at 2 km and 1e-5 deg, below what the results print.
 
+use crate::camera::Camera;
 use crate::frame::{FrameResult, Status};
+use crate::point::ImagePoint;
 use crate::pose::{Pose, nose_direction};
 use nalgebra::{Matrix3, Vector3};
 
@@ -214,6 +216,12 @@ pub struct WorldConfig {
     /// first: within its angle of attack of the velocity); closer, the choice stays the range
     /// trend's.
     pub side_margin_deg: f64,
+    /// The velocity predicted for a frame from the positions before it tells the silhouette
+    /// stage which end is the nose ([`flight_in_chip`]) where it lies at least this far across
+    /// the line of sight (the sine of its angle to it): its image then points within a few
+    /// degrees of the body's axis, however the body's ends look (a plume of the body's own
+    /// polarity tapers like a nose).
+    pub min_flight_across: f64,
 }
 
 impl WorldConfig {
@@ -222,6 +230,7 @@ impl WorldConfig {
         max_span_s: 2.5,
         max_gap_s: 1.0,
         side_margin_deg: 1.0,
+        min_flight_across: 0.5,
     };
 }
 
@@ -374,6 +383,38 @@ pub fn velocity_at<'a>(
     velocity.iter().all(|v| v.is_finite()).then_some(velocity)
 }
 
+/// The direction in the chip (unit, chip px axes) in which a body flying with `velocity_enu`
+/// (m/s in E) at the line of sight through the full-frame pixel `at_px` moves across the image,
+/// for a camera `camera` pointed as `mount`; None where the velocity lies less than
+/// `min_across` (the sine of its angle) across the line of sight, or is no velocity.
+pub fn flight_in_chip(
+    velocity_enu: &[f64; 3],
+    mount: &Mount,
+    camera: &Camera,
+    at_px: ImagePoint,
+    min_across: f64,
+) -> Option<ImagePoint> {
+    let v = mount.rotation_camera_to_world().transpose() * Vector3::from(*velocity_enu);
+    let (fx, fy) = (f64::from(camera.fx), f64::from(camera.fy));
+    let sight = Vector3::new(
+        (f64::from(at_px.x) - f64::from(camera.cx)) / fx,
+        (f64::from(at_px.y) - f64::from(camera.cy)) / fy,
+        1.0,
+    );
+    let speed = v.norm();
+    let along = v.dot(&sight) / sight.norm_squared();
+    let across = (v - sight * along).norm();
+    if !(speed.is_finite() && speed > 0.0 && across >= min_across * speed) {
+        return None;
+    }
+    // The image of a point moving along v from depth z: (fx (v.x - x v.z), fy (v.y - y v.z)) / z.
+    let du = fx * (v.x - sight.x * v.z);
+    let dv = fy * (v.y - sight.y * v.z);
+    let norm = libm::hypot(du, dv);
+    (norm > 0.0 && norm.is_finite())
+        .then(|| ImagePoint::new((du / norm) as f32, (dv / norm) as f32))
+}
+
 /// The world stage's state: the body origin's recent positions, for the velocity.
 #[derive(Debug, Clone, Default)]
 pub struct WorldStage {
@@ -391,6 +432,19 @@ impl WorldStage {
     /// Forgets the positions (a new clip).
     pub fn reset(&mut self) {
         self.flight.clear();
+    }
+
+    /// The velocity at `time_s` (s, after the positions taken), m/s in E, from the positions
+    /// before it ([`velocity_at`]), where the last is within `config.max_gap_s` and all within
+    /// `config.max_span_s` of it.
+    pub fn velocity_ahead(&self, time_s: f64, config: &WorldConfig) -> Option<[f64; 3]> {
+        let last = self.flight.back()?;
+        let fresh = time_s > last.time_s && time_s - last.time_s <= config.max_gap_s;
+        let recent = self
+            .flight
+            .iter()
+            .filter(|p| time_s - p.time_s <= config.max_span_s);
+        fresh.then(|| velocity_at(recent, time_s)).flatten()
     }
 
     /// Takes the body origin of the frame at `time_s` (s, after the frames given before) whose
@@ -508,6 +562,38 @@ mod tests {
             ..towards
         };
         assert!((WorldPose::of(&below, &mount, &station).origin_enu_m[2] - 25.0).abs() < 1e-4);
+    }
+
+    /// A level camera looking east (its +x south, +y down), by hand: flying north, the body
+    /// moves left across the image; climbing, up; north-east at 45 deg to the line of sight,
+    /// still left; 20 deg off the line of sight (sin 0.34 < 0.5) or along it, no direction. Off
+    /// the image centre, a velocity along the line of sight through that pixel has none either.
+    #[test]
+    fn the_flight_across_the_image_by_hand() {
+        let mount = Mount::new_checked(90.0, 0.0).unwrap();
+        let camera = Camera {
+            fx: 1000.0,
+            fy: 1000.0,
+            cx: 500.0,
+            cy: 400.0,
+        };
+        let centre = ImagePoint::new(500.0, 400.0);
+        let flight = |v: [f64; 3], at: ImagePoint| flight_in_chip(&v, &mount, &camera, at, 0.5);
+        let close = |got: Option<ImagePoint>, want: (f32, f32)| {
+            got.is_some_and(|p| (p.x - want.0).abs() < 1e-5 && (p.y - want.1).abs() < 1e-5)
+        };
+        assert!(close(flight([0.0, 250.0, 0.0], centre), (-1.0, 0.0)));
+        assert!(close(flight([0.0, 0.0, 100.0], centre), (0.0, -1.0)));
+        assert!(close(flight([200.0, 200.0, 0.0], centre), (-1.0, 0.0)));
+        let (s, c) = (20f64.to_radians().sin(), 20f64.to_radians().cos());
+        assert_eq!(flight([c * 250.0, s * 250.0, 0.0], centre), None);
+        assert_eq!(flight([250.0, 0.0, 0.0], centre), None);
+        // The line of sight through (600, 400): east and 0.1 of it south (camera +x).
+        assert_eq!(
+            flight([250.0, -25.0, 0.0], ImagePoint::new(600.0, 400.0)),
+            None
+        );
+        assert_eq!(flight([0.0, 0.0, 0.0], centre), None);
     }
 
     #[test]

@@ -218,6 +218,12 @@ pub struct Prior {
     pub nose_dir: Option<ImagePoint>,
     /// The body's diameter expected from the range, px.
     pub diameter_px: Option<f32>,
+    /// The direction in which the body flies across the chip, from the velocity of recent
+    /// frames ([`crate::world::flight_in_chip`]): a projectile flies nose first, so it tells the
+    /// nose from the tail before anything in the image does, whatever the ends look like (a
+    /// plume of the body's own polarity tapers like a nose; a bright cloud beyond the nose of a
+    /// dark body looks like a plume).
+    pub flight_dir: Option<ImagePoint>,
 }
 
 /// Why the silhouette could not be measured.
@@ -445,14 +451,16 @@ fn measure_on(
     } = ends;
     let length = hi50 - lo50;
     let evidence = orientation::nose_high_evidence(&profile, lo50, hi50, d, model);
-    let nose_high = match plume_high {
-        Some(plume_high) => !plume_high,
-        None if libm::fabsf(evidence) < config.min_nose_evidence
-            && let Some(prior) = prior_dir =>
+    let nose_high = match (plume_high, prior.flight_dir) {
+        (_, Some(flight)) => axis.dir.dot(flight) >= 0.0,
+        (Some(plume_high), None) => !plume_high,
+        (None, None)
+            if libm::fabsf(evidence) < config.min_nose_evidence
+                && let Some(prior) = prior_dir =>
         {
             axis.dir.dot(prior) >= 0.0
         }
-        None => evidence >= 0.0,
+        (None, None) => evidence >= 0.0,
     };
     let (nose_outer, nose_inward, nose50, tail_outer, tail_inward, tail50) = if nose_high {
         (high, -1isize, hi50, low, 1isize, lo50)

@@ -51,8 +51,6 @@ pub struct Background {
     ///
     /// [`corridor`]: crate::segment::corridor
     corridor: Option<Corridor>,
-    /// Whether terrain enters the chip from its lower edge ([`Background::estimate_terrain`]).
-    terrain: bool,
 }
 
 /// The interpolation along one axis at every pixel of the chip, tabulated once per chip so that
@@ -136,7 +134,6 @@ impl Background {
             sigma: MIN_SIGMA,
             samples: [0.0; NOISE_SAMPLES],
             corridor: None,
-            terrain: false,
         }
     }
 
@@ -161,7 +158,6 @@ impl Background {
         }
         self.sigma = self.noise_sigma_of(chip);
         self.corridor = None;
-        self.terrain = false;
     }
 
     /// Looks for terrain entering the chip from its lower edge ([`Horizon::find`], against the
@@ -213,14 +209,7 @@ impl Background {
                 }
             }
         }
-        self.terrain = true;
         true
-    }
-
-    /// Whether terrain enters the chip from its lower edge ([`Background::estimate_terrain`]
-    /// found some since the last [`Background::estimate`]).
-    pub fn has_terrain(&self) -> bool {
-        self.terrain
     }
 
     /// Measures the sky along a body in the corridor `shape` ([`Corridor`]) and uses it there

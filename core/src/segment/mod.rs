@@ -552,7 +552,6 @@ impl<
                 diag,
                 gate: expect.gate.as_ref(),
                 expected: size,
-                tried: expect.size.is_none(),
             };
             match self.judge_at_size(chip, &judging, &target) {
                 SizeVerdict::ComponentStands => return target,
@@ -641,9 +640,7 @@ impl<
         let strong = target.as_ref().is_ok_and(|t| {
             libm::fabsf(t.moments.mean_residual()) >= bar_config.strong_sigma * sigma
         });
-        // Where no size is known, the most significant component is no witness (a cloud band
-        // is as strong): the bars are searched.
-        if strong && !judging.tried && own.is_some_and(|o| o != Err(BarRefusal::AtEdge)) {
+        if strong && own.is_some_and(|o| o != Err(BarRefusal::AtEdge)) {
             return SizeVerdict::ComponentStands;
         }
         let mut bars: heapless::Vec<Bar, MAX_BARS> = heapless::Vec::new();
@@ -662,15 +659,12 @@ impl<
     }
 
     /// Whether a component of the last labeling reaches the chip's edge and spans more than
-    /// half the chip both across and down (not the terrain from the lower edge, where the sky
-    /// model found some: it stands out whole and is no texture a bar could lie in).
+    /// half the chip both across and down.
     fn spans_the_chip(&self, chip: &ChipView) -> bool {
         let (width, height) = (chip.width(), chip.height());
-        let terrain = self.background.has_terrain();
         self.labeler.components().any(|(_, m)| {
             let r = &m.bbox;
-            !(terrain && usize::from(r.y1) >= height)
-                && r.touches_edge(width, height)
+            r.touches_edge(width, height)
                 && 2 * usize::from(r.x1.saturating_sub(r.x0)) > width
                 && 2 * usize::from(r.y1.saturating_sub(r.y0)) > height
         })
@@ -715,7 +709,6 @@ impl<
             diag,
             gate,
             expected,
-            ..
         } = *judging;
         let shape = Shape {
             centre: bar.centre,
@@ -1070,10 +1063,8 @@ struct Judging<'a> {
     diag: f32,
     /// Where the track expects the body.
     gate: Option<&'a TrackGate>,
-    /// The body's expected size ...
+    /// The body's expected size.
     expected: &'a ExpectedBody,
-    /// ... or one of the sizes tried where no range is known.
-    tried: bool,
 }
 
 /// Paints the runs of the components `roots` of `labeler` into `mask`.
