@@ -55,6 +55,11 @@ pub struct TemporalConfig {
     pub trend_sigma: f32,
     /// A gap between frames longer than this, s, resets the temporal state.
     pub max_gap_s: f32,
+    /// The range is predicted (and detection judges candidates by the body's size at it) only
+    /// where the window's ranges scatter about their neighbours' chords by at most this
+    /// fraction of the range: a few image ranges read off in clutter would carry the size
+    /// expected away from the body's, which then is no candidate.
+    pub max_predicted_scatter: f32,
 }
 
 /// Eq. 5's weight for frames `dt` s apart: `r` per `tz_smoothing_interval_s`, compounded (the
@@ -79,6 +84,7 @@ impl TemporalConfig {
         min_trend_frames: 4,
         trend_sigma: 3.0,
         max_gap_s: 1.0,
+        max_predicted_scatter: 0.08,
     };
 }
 
@@ -222,9 +228,10 @@ impl Temporal {
     /// What the state tells the frame captured at `time_s` (s, any origin) before its image
     /// work. A frame not after the last one, or after a gap longer than `config.max_gap_s`,
     /// resets the state first. The range is predicted only within `config.max_gap_s` of the
-    /// window's last range: frames without one (no pose, no sensor) leave the trend's
+    /// window's last range (frames without one, no pose and no sensor, leave the trend's
     /// extrapolation to grow without a check, and a wrong prediction would keep the body, no
-    /// longer of its size, from being found again.
+    /// longer of its size, from being found again), and only from three ranges or more that
+    /// scatter by at most `config.max_predicted_scatter`.
     pub fn predict(&mut self, time_s: f64, config: &TemporalConfig) -> Prediction {
         let t = self.frame_time(time_s, config);
         let slope = self.trend().map_or(0.0, |tr| tr.slope);
@@ -232,6 +239,10 @@ impl Temporal {
             .window
             .back()
             .filter(|last| t - last.t <= config.max_gap_s)
+            .filter(|last| {
+                self.noise()
+                    .is_some_and(|n| n <= config.max_predicted_scatter * last.range)
+            })
             .map(|last| last.range + slope * (t - last.t))
             .filter(|r| r.is_finite() && *r > 0.0);
         Prediction {
@@ -587,6 +598,35 @@ mod tests {
             last = state.smooth_range(t, truth, &config) - truth;
         }
         assert!(last.abs() < 0.5, "lag {last} m");
+    }
+
+    /// The range is predicted from three steady ranges carried along their trend (120 m/s),
+    /// not from two, nor from ranges scattering by 15 % (an image range read off in clutter),
+    /// nor more than `max_gap_s` after the last range.
+    #[test]
+    fn the_range_is_predicted_only_from_steady_recent_ranges() {
+        let config = TemporalConfig::DEFAULT;
+        // The ranges at 0.1 s steps, then predictions at `at_s` (frames without a range).
+        let predicted = |ranges: &[f32], at_s: &[f64]| {
+            let mut state = Temporal::new();
+            for (k, r) in ranges.iter().enumerate() {
+                let t = state.frame_time(k as f64 * 0.1, &config);
+                state.push_range(t, *r, &config);
+            }
+            let mut last = None;
+            for t in at_s {
+                last = state.predict(*t, &config).range_m;
+            }
+            last
+        };
+        let steady = [1200.0, 1212.0, 1224.0, 1236.0];
+        let next = predicted(&steady, &[0.4]).expect("a prediction");
+        assert!((next - 1248.0).abs() < 0.5, "{next}");
+        assert_eq!(predicted(&steady[..2], &[0.2]), None);
+        assert_eq!(predicted(&[1200.0, 1400.0, 1150.0, 1450.0], &[0.4]), None);
+        // 0.9 s after the last range still, 1.4 s no longer (no gap between frames over 1 s).
+        assert!(predicted(&steady, &[1.2]).is_some());
+        assert_eq!(predicted(&steady, &[1.0, 1.7]), None);
     }
 
     #[test]
