@@ -12,6 +12,7 @@ use imade_core::lut::table::Table;
 use imade_core::mask::ChipMask;
 use imade_core::segment::bar::BarConfig;
 use imade_core::segment::corridor::CorridorConfig;
+use imade_core::segment::terrain::TerrainConfig;
 use imade_core::world::{Mount, WorldConfig};
 use imade_core::{
     BodyPolarity, Camera, Config, DetectConfig, FrameInput, GuidedLoopConfig, GuidedMethod,
@@ -99,7 +100,11 @@ enum ConfigSpec {
         /// Every tunable of the sky corridor, in its field order (None: the tiles' sky).
         corridor: Option<[f32; 6]>,
         /// Every tunable of the world stage, in its field order.
-        world: [f64; 3],
+        world: [f64; 4],
+        /// The terrain's tunables: its float ones and its px ones, each in field order (None:
+        /// not looked for).
+        terrain: Option<([f32; 5], [u16; 3])>,
+        max_predicted_scatter: f32,
     },
 }
 
@@ -206,6 +211,8 @@ fn config(spec: &ConfigSpec) -> Config {
             bar,
             corridor,
             world: w,
+            terrain,
+            max_predicted_scatter,
         } => Config {
             range_use: range_use(ignore_range),
             detect: DetectConfig {
@@ -260,6 +267,16 @@ fn config(spec: &ConfigSpec) -> Config {
                     length_scale: a[4],
                     max_disagreement: a[5],
                 }),
+                terrain: terrain.map(|(f, px)| TerrainConfig {
+                    min_contrast_sigma: f[0],
+                    min_width_fraction: f[1],
+                    gap_px: px[0],
+                    margin_px: px[1],
+                    edge_fraction: f[2],
+                    edge_px: px[2],
+                    min_sharp_fraction: f[3],
+                    min_low_fraction: f[4],
+                }),
             },
             silhouette: SilhouetteConfig {
                 half_length_sds: s[0],
@@ -305,6 +322,7 @@ fn config(spec: &ConfigSpec) -> Config {
                 max_span_s: w[0],
                 max_gap_s: w[1],
                 side_margin_deg: w[2],
+                min_flight_across: w[3],
             },
             uncertainty: UncertaintyConfig {
                 end_gain: u[0],
@@ -353,6 +371,7 @@ fn config(spec: &ConfigSpec) -> Config {
                 min_trend_frames: usize::from(min_trend_frames),
                 trend_sigma,
                 max_gap_s,
+                max_predicted_scatter,
             },
         },
     }
