@@ -170,25 +170,25 @@ fn a_faint_body_under_a_plume_keeps_its_attitude_over_three_seeds() {
 
 /// The scene of `fixtures/small-clutter-terrain` (terrain, a plume, filaments, a second
 /// object) with the body brighter than the sky instead (a sunlit body), 20 frames with the
-/// range, run with the body's polarity `polarity`: frames with a pose, median pitch error.
-fn bright_body_run(polarity: PolarityArg) -> (usize, f64) {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("bright-body");
-    let clip = dir.join("clip");
-    if !clip.join("frames.csv").exists() {
-        let file = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../fixtures/small-clutter-terrain/scenario.toml");
-        let mut scenario = Scenario::from_file(&file).expect("the scenario");
-        scenario.seed = 21;
-        scenario.randomize.bright_body_probability = Some(1.0);
-        Simulation::new(scenario)
-            .and_then(|s| s.write_clip(&clip, 2))
-            .unwrap_or_else(|e| panic!("{e:#}"));
-    }
+/// range, written to `clip`.
+fn write_bright_body_clip(clip: &Path) {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../fixtures/small-clutter-terrain/scenario.toml");
+    let mut scenario = Scenario::from_file(&file).expect("the scenario");
+    scenario.seed = 21;
+    scenario.randomize.bright_body_probability = Some(1.0);
+    Simulation::new(scenario)
+        .and_then(|s| s.write_clip(clip, 2))
+        .unwrap_or_else(|e| panic!("{e:#}"));
+}
+
+/// `clip` run with the body's polarity `polarity` into `dir`: frames with a pose, median pitch
+/// error.
+fn run_with_polarity(clip: &Path, dir: &Path, polarity: PolarityArg) -> (usize, f64) {
     let out = dir.join(format!("run-{polarity:?}"));
-    let _ = std::fs::remove_dir_all(&out);
     let args = imade_host::run::RunArgs {
         polarity,
-        ..imade_tests::run_args(&clip, RangeArg::Auto, &out)
+        ..imade_tests::run_args(clip, RangeArg::Auto, &out)
     };
     let evaluation = imade_tests::evaluate_run(args);
     let pitch = evaluation
@@ -207,10 +207,14 @@ fn bright_body_run(polarity: PolarityArg) -> (usize, f64) {
 /// (issue 14, the plume of either polarity).
 #[test]
 fn a_bright_body_is_found_when_its_polarity_is_given() {
-    let (poses, pitch) = bright_body_run(PolarityArg::Bright);
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("bright-body");
+    let _ = std::fs::remove_dir_all(&dir);
+    let clip = dir.join("clip");
+    write_bright_body_clip(&clip);
+    let (poses, pitch) = run_with_polarity(&clip, &dir, PolarityArg::Bright);
     assert!(poses >= 18, "{poses} of 20 frames with a pose");
     assert!(pitch <= 4.0, "median pitch error {pitch} deg/km");
-    let (poses, pitch) = bright_body_run(PolarityArg::Dark);
+    let (poses, pitch) = run_with_polarity(&clip, &dir, PolarityArg::Dark);
     assert!(poses < 18 || pitch > 5.0, "{poses} poses, pitch {pitch}");
 }
 

@@ -232,6 +232,12 @@ impl WorldConfig {
         side_margin_deg: 1.0,
         min_flight_across: 0.5,
     };
+
+    /// Whether a frame at `time_s` continues the flight whose last position was at `last_s`
+    /// (s): after it, by at most `max_gap_s`.
+    fn continues(&self, last_s: f64, time_s: f64) -> bool {
+        time_s > last_s && time_s - last_s <= self.max_gap_s
+    }
 }
 
 impl Default for WorldConfig {
@@ -439,7 +445,7 @@ impl WorldStage {
     /// `config.max_span_s` of it.
     pub fn velocity_ahead(&self, time_s: f64, config: &WorldConfig) -> Option<[f64; 3]> {
         let last = self.flight.back()?;
-        let fresh = time_s > last.time_s && time_s - last.time_s <= config.max_gap_s;
+        let fresh = config.continues(last.time_s, time_s);
         let recent = self
             .flight
             .iter()
@@ -462,9 +468,10 @@ impl WorldStage {
             return None;
         }
         let position = Position::of(time_s, result, &mount, station);
-        let stale = self.flight.back().is_some_and(|last| {
-            !(time_s > last.time_s && time_s - last.time_s <= config.max_gap_s)
-        });
+        let stale = self
+            .flight
+            .back()
+            .is_some_and(|last| !config.continues(last.time_s, time_s));
         if stale {
             self.flight.clear();
         }

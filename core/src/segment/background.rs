@@ -171,18 +171,20 @@ impl Background {
         if tiles_y < 2 || tiles_x == 0 {
             return false;
         }
+        // The top row's median (a copy: the median reorders), and the bottom row in place.
         let mut top_row = [0.0f32; MAX_TILES_PER_SIDE];
-        let mut bottom_row = [0.0f32; MAX_TILES_PER_SIDE];
-        for tx in 0..tiles_x {
-            if let (Some(t), Some(b)) = (top_row.get_mut(tx), bottom_row.get_mut(tx)) {
-                (*t, *b) = (self.level(tx, 0), self.level(tx, tiles_y - 1));
-            }
-        }
-        let Some(top_row) = top_row.get_mut(..tiles_x) else {
+        let (Some(top), Some(levels_top)) =
+            (top_row.get_mut(..tiles_x), self.levels.get(..tiles_x))
+        else {
             return false;
         };
-        let (_, sky, _) = top_row.select_nth_unstable_by(tiles_x / 2, f32::total_cmp);
-        let bottom = bottom_row.get(..tiles_x).unwrap_or_default();
+        top.copy_from_slice(levels_top);
+        let (_, sky, _) = top.select_nth_unstable_by(tiles_x / 2, f32::total_cmp);
+        let bottom_start = (tiles_y - 1) * tiles_x;
+        let bottom = self
+            .levels
+            .get(bottom_start..bottom_start + tiles_x)
+            .unwrap_or_default();
         // Only here: the tiles keep what it tells.
         let mut horizon = Horizon::new();
         if !horizon.find(chip, *sky, self.sigma, (bottom, BACKGROUND_TILE), config) {

@@ -68,7 +68,6 @@ impl Default for TerrainConfig {
 }
 
 /// The terrain's top in every column of the chip (none where no terrain was found).
-#[derive(Clone)]
 pub struct Horizon {
     /// Per column, the topmost row of the terrain (the chip's height: no terrain there).
     top: [u16; MAX_CHIP_SIDE],
@@ -92,11 +91,6 @@ impl Horizon {
             height: 0,
             present: false,
         }
-    }
-
-    /// Whether the chip has terrain.
-    pub fn is_present(&self) -> bool {
-        self.present
     }
 
     /// The topmost row of terrain in column `x`, where the column has terrain.
@@ -139,12 +133,13 @@ impl Horizon {
         // The way from the terrain's level to the sky's of the mean of 3 px of column `x` from
         // row `y` up (None: off the chip).
         let way = |x: usize, y: usize| {
-            let rows = y.checked_sub(2)?..=y;
-            let sum: f32 = rows
-                .filter(|r| *r < height)
+            if y >= height {
+                return None;
+            }
+            let sum: f32 = (y.checked_sub(2)?..=y)
                 .map(|r| f32::from(chip.get(x, r)))
                 .sum();
-            (y < height).then(|| (sum / 3.0 - level) / (sky - level))
+            Some((sum / 3.0 - level) / (sky - level))
         };
         let gap = usize::from(config.gap_px.max(1));
         let edge = usize::from(config.edge_px);
@@ -154,7 +149,7 @@ impl Horizon {
             for y in (0..height).rev() {
                 if terrain(chip.get(x, y)) {
                     highest = y;
-                } else if highest.min(height) - y > gap {
+                } else if highest - y > gap {
                     break;
                 }
             }
