@@ -141,7 +141,8 @@ impl<
     }
 
     /// The shape prior of the last frame: the model's silhouette rendered at the estimated pose
-    /// (after the shape-guided loop, where it ran), chip-sized (empty when no pose was estimated
+    /// (the grey-level fit's where it ran, else the table match's after the shape-guided loop,
+    /// where that ran), chip-sized (empty when no pose was estimated
     /// or no lookup table is loaded).
     pub fn prior(&self) -> &BitMask<MASK_WORDS> {
         self.table_match.prior()
@@ -395,6 +396,12 @@ impl<
                 &config.grey_fit,
             )
             .ok();
+            // The shape prior at the frame's final pose: the fit's.
+            if let (Some(fitted), true) = (&measurement.fitted, config.table_match.shape_prior) {
+                let placement = fitted.placement_in_chip(origin, self.model.diameter_m);
+                self.table_match
+                    .redraw_prior(chip, &fitted.view, &placement);
+            }
         }
         Ok((target, measurement))
     }

@@ -226,6 +226,18 @@ impl GreyFitted {
         let d = nose - tail;
         d * (1.0 / d.norm().max(f32::MIN_POSITIVE))
     }
+
+    /// The fitted silhouette's placement on the chip whose top-left pixel is the full-frame
+    /// pixel `origin`, in px per body diameter (`diameter_m`, m): a table entry's unit. The body
+    /// origin lies halfway between the ends.
+    pub fn placement_in_chip(&self, origin: (i32, i32), diameter_m: f32) -> Placement {
+        let [nose, tail] = self.ends;
+        Placement {
+            origin: (nose + tail) * 0.5 - ImagePoint::of_pixel(origin),
+            dir: self.nose_dir(),
+            px_per_unit: self.px_per_m * diameter_m,
+        }
+    }
 }
 
 /// One frame's data for the fit.

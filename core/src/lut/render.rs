@@ -1,5 +1,7 @@
-//! The model's silhouette as filled triangles, drawn with embedded-graphics: the shape prior on
-//! the chip, and (at a large scale) the source of the table's entries.
+//! The model's silhouette as filled triangles: the shape prior on the chip, drawn by the ground-
+//! truth masks' rule (a pixel whose centre the silhouette covers, [`fill_triangle_by_centres`]),
+//! and at a large scale the source of the table's entries (embedded-graphics' fill,
+//! [`fill_triangle`], which also sets the pixels its edges touch).
 //!
 //! The body of revolution is a chain of cross-section circles along the axis (the ogive's
 //! stations, the shoulder, the base); under a narrow field of view each projects to an ellipse
@@ -13,7 +15,8 @@ use crate::point::ImagePoint;
 use crate::pose::RAD;
 use embedded_graphics::Drawable;
 use embedded_graphics::pixelcolor::BinaryColor;
-use embedded_graphics::prelude::{DrawTarget, Point, Primitive};
+use embedded_graphics::prelude::{DrawTarget, Point, Primitive, Size};
+use embedded_graphics::primitives::Rectangle;
 use embedded_graphics::primitives::{PrimitiveStyle, Triangle};
 
 /// Vertices of a cross-section's ellipse.
@@ -45,11 +48,18 @@ pub struct Placement {
 }
 
 impl Placement {
+    /// The target point of silhouette-frame point `(u, v)`, px (pixel centres at integers).
+    fn point(&self, (u, v): (f32, f32)) -> ImagePoint {
+        ImagePoint::new(
+            self.origin.x + self.px_per_unit * (u * self.dir.x - v * self.dir.y),
+            self.origin.y + self.px_per_unit * (u * self.dir.y + v * self.dir.x),
+        )
+    }
+
     /// The target pixel nearest to silhouette-frame point `(u, v)`.
-    fn pixel(&self, (u, v): (f32, f32)) -> Point {
-        let x = self.origin.x + self.px_per_unit * (u * self.dir.x - v * self.dir.y);
-        let y = self.origin.y + self.px_per_unit * (u * self.dir.y + v * self.dir.x);
-        Point::new(libm::roundf(x) as i32, libm::roundf(y) as i32)
+    fn pixel(&self, uv: (f32, f32)) -> Point {
+        let p = self.point(uv);
+        Point::new(libm::roundf(p.x) as i32, libm::roundf(p.y) as i32)
     }
 
     /// True when the placement is finite and a shape of `extent` units stays under 16384 px.
@@ -88,6 +98,63 @@ pub fn fill_triangle<D: DrawTarget<Color = BinaryColor>>(
     Triangle::new(a, b, c)
         .into_styled(PrimitiveStyle::with_fill(BinaryColor::On))
         .draw(target)
+}
+
+/// Fills one silhouette-frame triangle at `placement` by the ground-truth masks' rule: a pixel is
+/// set where its centre (at integers) lies inside the triangle or on its edge, which for a
+/// silhouette's straight edges is where at least half of the pixel is covered. Nothing is drawn
+/// for a triangle that is degenerate, not finite, or has a vertex more than 16384 px
+/// (`MAX_EXTENT_PX`) from the target's origin; rows and columns outside the target are skipped.
+pub fn fill_triangle_by_centres<D: DrawTarget<Color = BinaryColor>>(
+    target: &mut D,
+    placement: &Placement,
+    triangle: [(f32, f32); 3],
+) -> Result<(), D::Error> {
+    let [a, b, c] = triangle.map(|p| placement.point(p));
+    let far =
+        |p: &ImagePoint| !(libm::fabsf(p.x) <= MAX_EXTENT_PX && libm::fabsf(p.y) <= MAX_EXTENT_PX);
+    if [a, b, c].iter().any(far) {
+        return Ok(());
+    }
+    let area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    if area == 0.0 || !area.is_finite() {
+        return Ok(());
+    }
+    // Counter-clockwise in (x, y): each edge's inside is to its left.
+    let (b, c) = if area > 0.0 { (b, c) } else { (c, b) };
+    let size = target.bounding_box().size;
+    let (width, height) = (size.width as f32, size.height as f32);
+    let top = libm::ceilf(a.y.min(b.y).min(c.y)).max(0.0);
+    let bottom = libm::floorf(a.y.max(b.y).max(c.y)).min(height - 1.0);
+    let mut y = top;
+    while y <= bottom {
+        // The row's span: on each edge p -> q, the inside is (q - p) x (x - p) >= 0, linear in x.
+        let (mut lo, mut hi) = (0.0f32, width - 1.0);
+        for (p, q) in [(a, b), (b, c), (c, a)] {
+            let (dx, dy) = (q.x - p.x, q.y - p.y);
+            // dx (y - p.y) - dy (x - p.x) >= 0.
+            let at = dx * (y - p.y);
+            if dy == 0.0 {
+                if at < 0.0 {
+                    hi = -1.0;
+                }
+            } else if dy < 0.0 {
+                lo = lo.max(p.x + at / dy);
+            } else {
+                hi = hi.min(p.x + at / dy);
+            }
+        }
+        let (first, last) = (libm::ceilf(lo), libm::floorf(hi));
+        if first <= last {
+            let span = Rectangle::new(
+                Point::new(first as i32, y as i32),
+                Size::new((last - first) as u32 + 1, 1),
+            );
+            target.fill_solid(&span, BinaryColor::On)?;
+        }
+        y += 1.0;
+    }
+    Ok(())
 }
 
 /// A point of the body, `x` m along the axis from the origin, `r` m from it at fin angle `psi`
@@ -159,8 +226,8 @@ pub fn u_extent(model: &ProjectileModel, view: &View) -> (f32, f32) {
     (lo, hi)
 }
 
-/// Draws the silhouette of `model` at `view` into `target` at `placement` (in px per metre).
-/// Nothing is drawn for a placement that is not finite or would span more than 16384 px.
+/// Draws the silhouette of `model` at `view` into `target` at `placement` (in px per metre),
+/// pixels whose centres it covers. Nothing is drawn for a placement that is not finite or would span more than 16384 px.
 pub fn draw<D: DrawTarget<Color = BinaryColor>>(
     target: &mut D,
     model: &ProjectileModel,
@@ -173,15 +240,15 @@ pub fn draw<D: DrawTarget<Color = BinaryColor>>(
     let mut result = Ok(());
     for_each_triangle(model, view, |t| {
         if result.is_ok() {
-            result = fill_triangle(target, placement, t);
+            result = fill_triangle_by_centres(target, placement, t);
         }
     });
     result
 }
 
 /// Draws a table entry's silhouette into `target` at `placement` (in px per body diameter): the
-/// quads between consecutive stations' edges. This is how the shape prior is drawn, whatever
-/// the model the table was built from.
+/// quads between consecutive stations' edges, pixels whose centres they cover. This is how the
+/// shape prior is drawn, whatever the model the table was built from.
 pub fn draw_entry<D: DrawTarget<Color = BinaryColor>>(
     target: &mut D,
     entry: &Entry,
@@ -199,8 +266,8 @@ pub fn draw_entry<D: DrawTarget<Color = BinaryColor>>(
     };
     for s in 1..entry.stations() {
         let ((a0, a1), (b0, b1)) = (station(s - 1), station(s));
-        fill_triangle(target, placement, [a0, a1, b1])?;
-        fill_triangle(target, placement, [a0, b1, b0])?;
+        fill_triangle_by_centres(target, placement, [a0, a1, b1])?;
+        fill_triangle_by_centres(target, placement, [a0, b1, b0])?;
     }
     Ok(())
 }
@@ -255,15 +322,14 @@ mod tests {
         mask.count() as f32 / (px_per_unit * px_per_unit)
     }
 
-    /// embedded-graphics fills every pixel a triangle's edges touch, so a drawn silhouette is
-    /// about half a pixel wider all round: the expected count is the area plus half a pixel
-    /// times the perimeter (about twice the length plus the fins' free edges).
+    /// A silhouette is drawn by its pixels' centres, so the count is its area (the ground-truth
+    /// masks' half-covered pixels); embedded-graphics' fill, which also sets the pixels the edges
+    /// touch, drew half a pixel times the perimeter more (about 5 % here).
     #[test]
     fn the_model_and_its_table_entry_draw_the_broadside_area() {
         let m = reference();
         let px_per_m = 300.0;
-        let perimeter = 2.0 * m.length_m + 4.0 * (m.max_radius_m() - m.radius_m());
-        let expected = broadside_area() + 0.5 / px_per_m * perimeter;
+        let expected = broadside_area();
         let view = View {
             tilt_deg: 0.0,
             roll_deg: 0.0,
@@ -284,6 +350,44 @@ mod tests {
             (entry_area / expected - 1.0).abs() < 0.03,
             "{entry_area} vs {expected}"
         );
+    }
+
+    /// Hand-counted: the triangle (0, 0), (4, 0), (0, 4) holds the 15 pixel centres with
+    /// `x + y <= 4`, its edges included; a pixel half covered (the edge through its centre) is
+    /// set, one less than half covered is not.
+    #[test]
+    fn a_triangle_sets_the_pixels_whose_centres_it_covers() {
+        let mut mask = BitMask::<{ crate::capacity::mask_words(16) }>::default();
+        mask.reset(16, 16).unwrap();
+        let identity = Placement {
+            origin: ImagePoint::new(0.0, 0.0),
+            dir: ImagePoint::new(1.0, 0.0),
+            px_per_unit: 1.0,
+        };
+        let corner = [(0.0, 0.0), (4.0, 0.0), (0.0, 4.0)];
+        fill_triangle_by_centres(&mut mask, &identity, corner).unwrap();
+        assert_eq!(mask.count(), 15);
+        assert!(mask.get(4, 0) && mask.get(2, 2) && !mask.get(3, 2));
+        // Either way round.
+        mask.reset(16, 16).unwrap();
+        fill_triangle_by_centres(&mut mask, &identity, [corner[0], corner[2], corner[1]]).unwrap();
+        assert_eq!(mask.count(), 15);
+        // The rectangle 10.5 <= x <= 12.4, 5 <= y <= 8 as two triangles: columns 11 and 12 (the
+        // first half covered, the second 0.9 covered), column 10 (covered from 0.5: not set).
+        mask.reset(16, 16).unwrap();
+        for t in [
+            [(10.5, 5.0), (12.4, 5.0), (12.4, 8.0)],
+            [(10.5, 5.0), (12.4, 8.0), (10.5, 8.0)],
+        ] {
+            fill_triangle_by_centres(&mut mask, &identity, t).unwrap();
+        }
+        assert_eq!(mask.count(), 2 * 4);
+        assert!(mask.get(11, 5) && mask.get(12, 8) && !mask.get(10, 6) && !mask.get(13, 6));
+        // Off the target's edge: only the pixels inside are set.
+        mask.reset(16, 16).unwrap();
+        let beyond = [(-8.0, -8.0), (12.0, -8.0), (-8.0, 12.0)];
+        fill_triangle_by_centres(&mut mask, &identity, beyond).unwrap();
+        assert_eq!(mask.count(), 15);
     }
 
     #[test]

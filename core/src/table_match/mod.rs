@@ -22,7 +22,7 @@ use crate::chip::ChipView;
 use crate::closed_form::{ClosedForm, Hypothesis};
 use crate::config::BodyPolarity;
 use crate::grey_fit::GreyFitted;
-use crate::lut::render;
+use crate::lut::render::{self, Placement, View};
 use crate::lut::table::Table;
 use crate::mask::BitMask;
 use crate::model::ProjectileModel;
@@ -262,7 +262,8 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
     }
 
     /// The shape prior of the last frame: the model's silhouette rendered at the matched pose
-    /// (after the shape-guided loop, where it ran), chip-sized (empty when nothing matched).
+    /// (after the shape-guided loop, where it ran; at the grey-level fit's where the pipeline
+    /// drew it again, [`TableMatch::redraw_prior`]), chip-sized (empty when nothing matched).
     pub fn prior(&self) -> &BitMask<MASK_WORDS> {
         &self.prior
     }
@@ -363,20 +364,32 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
 
     /// Draws the matched entry's silhouette into the prior mask.
     fn draw_prior(&mut self, chip: &ChipView, matched: &MatchedPose) {
+        self.draw_silhouette(chip, &matched.view, &matched.placement);
+    }
+
+    /// Draws the prior mask again at a pose refined after the match (the grey-level fit's):
+    /// the table's entry nearest `view` at `placement` (chip px, px per body diameter), so that
+    /// [`TableMatch::prior`] is the silhouette at the frame's final pose.
+    pub fn redraw_prior(&mut self, chip: &ChipView, view: &View, placement: &Placement) {
+        self.draw_silhouette(chip, view, placement);
+    }
+
+    /// Draws the table's entry nearest `view` at `placement` into the prior mask.
+    fn draw_silhouette(&mut self, chip: &ChipView, view: &View, placement: &Placement) {
         self.prior.clear();
         let Some(table) = &self.table else { return };
-        let entry = table.entry_nearest(&matched.view);
+        let entry = table.entry_nearest(view);
         // A silhouette more than twice the chip's size is no prior for it, and embedded-graphics
         // fills a triangle in time quadratic in its size (a 2 m range drew for 3 s): not drawn.
         let (lo, hi) = entry.u_range();
         let side = chip.width().max(chip.height()) as f32;
-        let fits = matched.placement.px_per_unit * (hi - lo).max(1.0) <= 2.0 * side;
+        let fits = placement.px_per_unit * (hi - lo).max(1.0) <= 2.0 * side;
         if !fits {
             return;
         }
         if self.prior.reset(chip.width(), chip.height()).is_ok() {
             // The mask is an infallible draw target.
-            let _ = render::draw_entry(&mut self.prior, &entry, &matched.placement);
+            let _ = render::draw_entry(&mut self.prior, &entry, placement);
         }
     }
 }
