@@ -227,7 +227,8 @@ pub fn u_extent(model: &ProjectileModel, view: &View) -> (f32, f32) {
 }
 
 /// Draws the silhouette of `model` at `view` into `target` at `placement` (in px per metre),
-/// pixels whose centres it covers. Nothing is drawn for a placement that is not finite or would span more than 16384 px.
+/// pixels whose centres it covers. Nothing is drawn for a placement that is not finite or would
+/// span more than 16384 px.
 pub fn draw<D: DrawTarget<Color = BinaryColor>>(
     target: &mut D,
     model: &ProjectileModel,

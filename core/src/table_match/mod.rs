@@ -364,23 +364,18 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
 
     /// Draws the matched entry's silhouette into the prior mask.
     fn draw_prior(&mut self, chip: &ChipView, matched: &MatchedPose) {
-        self.draw_silhouette(chip, &matched.view, &matched.placement);
+        self.redraw_prior(chip, &matched.view, &matched.placement);
     }
 
-    /// Draws the prior mask again at a pose refined after the match (the grey-level fit's):
-    /// the table's entry nearest `view` at `placement` (chip px, px per body diameter), so that
-    /// [`TableMatch::prior`] is the silhouette at the frame's final pose.
+    /// Draws the prior mask (again) as the table's entry nearest `view` at `placement` (chip
+    /// px, px per body diameter): the match's pose, or one refined after it (the grey-level
+    /// fit's), so that [`TableMatch::prior`] is the silhouette at the frame's final pose.
     pub fn redraw_prior(&mut self, chip: &ChipView, view: &View, placement: &Placement) {
-        self.draw_silhouette(chip, view, placement);
-    }
-
-    /// Draws the table's entry nearest `view` at `placement` into the prior mask.
-    fn draw_silhouette(&mut self, chip: &ChipView, view: &View, placement: &Placement) {
         self.prior.clear();
         let Some(table) = &self.table else { return };
         let entry = table.entry_nearest(view);
-        // A silhouette more than twice the chip's size is no prior for it, and embedded-graphics
-        // fills a triangle in time quadratic in its size (a 2 m range drew for 3 s): not drawn.
+        // A silhouette more than twice the chip's size is no prior for it, and filling takes
+        // time quadratic in its size (a 2 m range drew for 3 s): not drawn.
         let (lo, hi) = entry.u_range();
         let side = chip.width().max(chip.height()) as f32;
         let fits = placement.px_per_unit * (hi - lo).max(1.0) <= 2.0 * side;
