@@ -200,7 +200,7 @@ fn check(pipeline: &Pipeline, chip: &ChipView, r: &FrameResult) -> Result<(), Te
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(96))]
+    #![proptest_config(imade_tests::proptest_config(96))]
 
     #[test]
     fn every_result_keeps_the_invariants(scene in scene(), polarity in 0usize..3) {

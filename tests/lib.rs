@@ -8,6 +8,7 @@ pub mod render;
 
 use imade_core::lut::table::Table;
 use imade_core::{Camera, ProjectileModel};
+use proptest::test_runner::{Config as ProptestConfig, RngSeed};
 use render::Intrinsics;
 use std::path::{Path, PathBuf};
 
@@ -19,6 +20,23 @@ pub const TELESCOPE: Intrinsics = Intrinsics {
     cx: 1023.5,
     cy: 1023.5,
 };
+
+/// The settings of the workspace's property tests: `cases` cases drawn from a fixed seed, so that
+/// every run (CI's among them) checks the same cases and a failure is a change, not a draw.
+/// `PROPTEST_RNG_SEED=<n>` draws other cases.
+pub fn proptest_config(cases: u32) -> ProptestConfig {
+    let config = ProptestConfig::with_cases(cases);
+    if std::env::var_os("PROPTEST_RNG_SEED").is_some() {
+        return config;
+    }
+    ProptestConfig {
+        rng_seed: RngSeed::Fixed(PROPTEST_SEED),
+        ..config
+    }
+}
+
+/// The property tests' fixed seed ([`proptest_config`]).
+const PROPTEST_SEED: u64 = 20261202;
 
 /// The core's camera for the renderer's intrinsics.
 pub fn core_camera(intrinsics: &Intrinsics) -> Camera {

@@ -446,7 +446,7 @@ fn odd_config(values: &[f32]) -> ShapeGuidedConfig {
 }
 
 proptest::proptest! {
-    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+    #![proptest_config(imade_tests::proptest_config(64))]
 
     /// Any chip, any prior and any tunables: a result or an error, never a panic; a result's
     /// mask has the chip's size and the pixels it reports.

@@ -92,6 +92,10 @@ pub struct BarConfig {
     /// A component target shorter than this fraction of the bar it lies on is a fragment of
     /// the body: the bar is the target.
     pub fragment_fraction: f32,
+    /// A bar whose centre line lies on the component target's mask over at least this fraction
+    /// of its middle half is a piece of the component (a fin or an end of a body that detection
+    /// found whole): the component stands.
+    pub piece_fraction: f32,
 }
 
 impl BarConfig {
@@ -112,6 +116,7 @@ impl BarConfig {
         plume_weight: 1.0,
         max_width_penalty: 2.0,
         fragment_fraction: 0.5,
+        piece_fraction: 0.8,
     };
 }
 

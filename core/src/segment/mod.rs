@@ -512,8 +512,9 @@ impl<
     /// fitted cross-section must have the body's diameter, or a plume mark its tail) and scored
     /// ([`Segmenter::bar_score`]); where the best lies on the component, or scores no better
     /// than the component measured as a bar, the component stands, unless it is a fragment of
-    /// that bar ([`BarConfig::fragment_fraction`]); else the bar becomes the target, its mask
-    /// the bar's rectangle.
+    /// that bar ([`BarConfig::fragment_fraction`]); it stands too where the bar is only a piece
+    /// of it ([`BarConfig::piece_fraction`]); else the bar becomes the target, its mask the
+    /// bar's rectangle.
     fn judge_by_bar(
         &mut self,
         chip: &ChipView,
@@ -598,6 +599,16 @@ impl<
             (Some(under), _) => under,
             (None, _) => (bar, size),
         };
+        // A bar that is a piece of a strong component (a fin or an end of a body found whole,
+        // whose own bar was refused near the chip's edge) leaves the component standing.
+        let piece = target.as_ref().is_ok_and(|t| {
+            t.polarity == polarity
+                && self.is_strong(t, &bar_config)
+                && self.mask_along(&bar) >= bar_config.piece_fraction
+        });
+        if piece {
+            return target;
+        }
         let components = target.map_or(0, |t| t.components);
         let gated = expect
             .gate
@@ -608,6 +619,27 @@ impl<
             TrackUse::Fresh
         };
         Ok(self.paint_bar(chip, &bar, size.diameter_px, polarity, (components, track)))
+    }
+
+    /// Whether the component `target` stands out by at least [`BarConfig::strong_sigma`] noise
+    /// sigmas on average.
+    fn is_strong(&self, target: &Target, bar_config: &BarConfig) -> bool {
+        libm::fabsf(target.moments.mean_residual())
+            >= bar_config.strong_sigma * self.background.sigma()
+    }
+
+    /// The fraction of the middle half of `bar`'s centre line (its ends lie up to half a block
+    /// beyond the body's), sampled a pixel apart, that lies on the target mask.
+    fn mask_along(&self, bar: &Bar) -> f32 {
+        let longest = (self.mask.width() + self.mask.height()) as f32;
+        let steps = libm::floorf(0.5 * bar.half_length_px.clamp(0.0, longest)) as i32;
+        let on = (-steps..=steps)
+            .filter(|i| {
+                let p = bar.centre + bar.dir * *i as f32;
+                p.x >= 0.0 && p.y >= 0.0 && self.mask.get(p.x as usize, p.y as usize)
+            })
+            .count();
+        on as f32 / (2 * steps + 1) as f32
     }
 
     /// The bar search for a body of `judging.expected`'s size: the component `target` stands
@@ -637,9 +669,7 @@ impl<
             (t.polarity == judging.polarity)
                 .then(|| self.bars.measure(t.shape.centre, t.shape.axis, bar_config))
         });
-        let strong = target.as_ref().is_ok_and(|t| {
-            libm::fabsf(t.moments.mean_residual()) >= bar_config.strong_sigma * sigma
-        });
+        let strong = target.as_ref().is_ok_and(|t| self.is_strong(t, bar_config));
         if strong && own.is_some_and(|o| o != Err(BarRefusal::AtEdge)) {
             return SizeVerdict::ComponentStands;
         }
@@ -1256,6 +1286,50 @@ mod tests {
             (target.shape.centre.x - 128.0).abs() < 8.0
                 && (target.shape.centre.y - 128.0).abs() < 3.0
                 && (90.0..=125.0).contains(&length),
+            "{target:?}"
+        );
+    }
+
+    /// A strong body (60 grey levels on noise 2), 8 px wide and 138 px long with fins 20 px
+    /// across its last 14 px, its nose 28 px from the chip's edge: nearer than a faded bar's
+    /// ends could hide the body's extremes, so the component's own bar is refused, and the bar
+    /// search finds a piece of it. The component, the whole body, stays the target.
+    #[test]
+    fn a_strong_body_near_the_edge_is_not_given_up_for_a_piece_of_it() {
+        const SIDE: usize = 256;
+        let mut noise = crate::testing::noise_sequence(SIDE * SIDE, 7);
+        let mut data = [0u8; SIDE * SIDE];
+        for (i, v) in data.iter_mut().enumerate() {
+            let (x, y) = (i % SIDE, i / SIDE);
+            let on_body = (124..132).contains(&y) && (90..228).contains(&x);
+            let on_fins = (118..138).contains(&y) && (90..104).contains(&x);
+            let dark = if on_body || on_fins { 60.0 } else { 0.0 };
+            *v = (150.0 - dark + 2.0 * noise.next().unwrap_or(0.0)).clamp(0.0, 255.0) as u8;
+        }
+        let chip = ChipView::gray8(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        let expected = ExpectedBody {
+            diameter_px: 8.0,
+            span_px: 20.0,
+            length_px: 138.0,
+        };
+        let mut segmenter: Segmenter = Segmenter::new();
+        let target = segmenter
+            .detect(
+                &chip,
+                &DetectConfig::DEFAULT,
+                ImagePoint::new(128.0, 128.0),
+                &Expectation {
+                    size: Some(expected),
+                    ..Expectation::NONE
+                },
+            )
+            .unwrap();
+        let length = 2.0 * UNIFORM_BAR_HALF_SDS * target.shape.major_sd;
+        assert_eq!(target.found_by, FoundBy::Components, "{target:?}");
+        assert!(
+            (target.shape.centre.x - 155.0).abs() < 8.0
+                && (target.shape.centre.y - 128.0).abs() < 1.0
+                && (125.0..=150.0).contains(&length),
             "{target:?}"
         );
     }
