@@ -346,6 +346,7 @@ impl<
                         span_diameters: self.model.max_radius_m() / self.model.radius_m(),
                         length_diameters: self.model.length_m / self.model.diameter_m,
                     }),
+                    size_measured: input.sensor_range_m.is_some(),
                 },
             )
             .inspect_err(|e| {

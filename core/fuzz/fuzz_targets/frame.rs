@@ -96,7 +96,7 @@ enum ConfigSpec {
         /// iterations, the rest in field order).
         grey_fit: (bool, u16, u8, u8, u8, [f32; 9]),
         /// Every tunable of the bar search, in its field order (None: no bar search).
-        bar: Option<[f32; 16]>,
+        bar: Option<[f32; 18]>,
         /// Every tunable of the sky corridor, in its field order (None: the tiles' sky).
         corridor: Option<[f32; 6]>,
         /// Every tunable of the world stage, in its field order.
@@ -259,6 +259,8 @@ fn config(spec: &ConfigSpec) -> Config {
                     max_width_penalty: a[13],
                     fragment_fraction: a[14],
                     piece_fraction: a[15],
+                    plume_length_fraction: a[16],
+                    plume_max_contrast_ratio: a[17],
                 }),
                 corridor: corridor.map(|a| CorridorConfig {
                     margin_px: a[0],

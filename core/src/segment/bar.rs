@@ -96,6 +96,12 @@ pub struct BarConfig {
     /// of its middle half is a piece of the component (a fin or an end of a body that detection
     /// found whole): the component stands.
     pub piece_fraction: f32,
+    /// Where the body's size is from a measured range, a strong component of its polarity
+    /// shorter than this fraction of its broadside length may be a plume of its polarity: the
+    /// best bar that ends at it along its axis is the body.
+    pub plume_length_fraction: f32,
+    /// ... unless that plume's mean contrast is more than this many times the bar's.
+    pub plume_max_contrast_ratio: f32,
 }
 
 impl BarConfig {
@@ -117,6 +123,8 @@ impl BarConfig {
         max_width_penalty: 2.0,
         fragment_fraction: 0.5,
         piece_fraction: 0.8,
+        plume_length_fraction: 0.5,
+        plume_max_contrast_ratio: 10.0,
     };
 }
 
@@ -864,6 +872,10 @@ fn scale_of(expected: &ExpectedBody, longest_px: f32, config: &BarConfig) -> Sca
 /// The smallest |cosine| between two peaks' directions taken as one bar's (about 20 degrees:
 /// its neighbouring directions respond too).
 const PEAK_PARALLEL_COS: f32 = 0.94;
+
+/// The smallest |cosine| between a bar and the axis of a plume of the body's polarity at its
+/// end for the two to be a body and its plume (about 20 degrees: a short plume's axis is coarse).
+pub const PLUME_ALIGNED_COS: f32 = 0.94;
 
 /// The smallest |cosine| between two lines taken as parallel (about 10 degrees).
 pub const PARALLEL_COS: f32 = 0.985;

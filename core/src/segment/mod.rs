@@ -150,6 +150,11 @@ pub struct Expectation {
     pub gate: Option<TrackGate>,
     /// Its shape in diameters (the model's), for the sizes tried where no range is known.
     pub proportions: Option<Proportions>,
+    /// Whether `size` comes from a measured range (the sensor's), not one predicted from the
+    /// recent frames' image ranges: only a measured size calls a strong component too short to
+    /// be the body ([`Segmenter::is_plume_like`]; a predicted one, read short, took a body seen
+    /// end on at 2 km for a plume).
+    pub size_measured: bool,
 }
 
 impl Expectation {
@@ -158,6 +163,7 @@ impl Expectation {
         size: None,
         gate: None,
         proportions: None,
+        size_measured: false,
     };
 }
 
@@ -514,7 +520,9 @@ impl<
     /// than the component measured as a bar, the component stands, unless it is a fragment of
     /// that bar ([`BarConfig::fragment_fraction`]); it stands too where the bar is only a piece
     /// of it ([`BarConfig::piece_fraction`]); else the bar becomes the target, its mask the
-    /// bar's rectangle.
+    /// bar's rectangle. A strong component short for the body, where the size is measured
+    /// ([`Segmenter::is_plume_like`]), gives way to the best bar that ends at it along its axis
+    /// (a faint body and its plume of the body's polarity), else it is judged as any other.
     fn judge_by_bar(
         &mut self,
         chip: &ChipView,
@@ -553,9 +561,13 @@ impl<
                 diag,
                 gate: expect.gate.as_ref(),
                 expected: size,
+                size_measured: expect.size.is_some() && expect.size_measured,
             };
             match self.judge_at_size(chip, &judging, &target) {
                 SizeVerdict::ComponentStands => return target,
+                SizeVerdict::BodyBeforePlume(bar) => {
+                    return Ok(self.bar_target(chip, &bar, size, polarity, expect, &target));
+                }
                 SizeVerdict::Judged { best: b, own } => {
                     for (kept, found) in [(&mut best, b), (&mut own_best, own)] {
                         if let Some((score, bar)) = found
@@ -609,7 +621,21 @@ impl<
         if piece {
             return target;
         }
-        let components = target.map_or(0, |t| t.components);
+        Ok(self.bar_target(chip, &bar, &size, polarity, expect, &target))
+    }
+
+    /// `bar` as the target, its mask the bar's rectangle `size`'s diameter wide, gated where the
+    /// track's gate (`expect`) admits it; it counts the components of the component `target`.
+    fn bar_target(
+        &mut self,
+        chip: &ChipView,
+        bar: &Bar,
+        size: &ExpectedBody,
+        polarity: BodyPolarity,
+        expect: &Expectation,
+        target: &Result<Target, SegmentError>,
+    ) -> Target {
+        let components = target.as_ref().map_or(0, |t| t.components);
         let gated = expect
             .gate
             .is_some_and(|g| g.admits_line(bar.centre, bar.dir, polarity));
@@ -618,7 +644,7 @@ impl<
         } else {
             TrackUse::Fresh
         };
-        Ok(self.paint_bar(chip, &bar, size.diameter_px, polarity, (components, track)))
+        self.paint_bar(chip, bar, size.diameter_px, polarity, (components, track))
     }
 
     /// Whether the component `target` stands out by at least [`BarConfig::strong_sigma`] noise
@@ -626,6 +652,22 @@ impl<
     fn is_strong(&self, target: &Target, bar_config: &BarConfig) -> bool {
         libm::fabsf(target.moments.mean_residual())
             >= bar_config.strong_sigma * self.background.sigma()
+    }
+
+    /// Whether `target` is a strong component of the body's `polarity` shorter than
+    /// [`BarConfig::plume_length_fraction`] of the body seen broadside (`expected`): a plume of
+    /// the body's polarity at its tail, or the body seen end on.
+    fn is_plume_like(
+        &self,
+        target: &Target,
+        polarity: BodyPolarity,
+        expected: &ExpectedBody,
+        bar_config: &BarConfig,
+    ) -> bool {
+        target.polarity == polarity
+            && self.is_strong(target, bar_config)
+            && 2.0 * UNIFORM_BAR_HALF_SDS * target.shape.major_sd
+                < bar_config.plume_length_fraction * expected.length_px
     }
 
     /// The fraction of the middle half of `bar`'s centre line (its ends lie up to half a block
@@ -670,13 +712,52 @@ impl<
                 .then(|| self.bars.measure(t.shape.centre, t.shape.axis, bar_config))
         });
         let strong = target.as_ref().is_ok_and(|t| self.is_strong(t, bar_config));
-        if strong && own.is_some_and(|o| o != Err(BarRefusal::AtEdge)) {
+        let blob = target.as_ref().ok().filter(|t| {
+            judging.size_measured && self.is_plume_like(t, judging.polarity, expected, bar_config)
+        });
+        let stands = strong && own.is_some_and(|o| o != Err(BarRefusal::AtEdge));
+        if stands && blob.is_none() {
             return SizeVerdict::ComponentStands;
         }
         let mut bars: heapless::Vec<Bar, MAX_BARS> = heapless::Vec::new();
-        let plume = self.plume(judging.polarity, sigma, longest, bar_config);
+        let plume = match blob {
+            Some(t) => Some(t.shape),
+            None => self.plume(judging.polarity, sigma, longest, bar_config),
+        };
         self.bars.search(bar_config, plume.as_ref(), &mut bars);
         let score = |bar: &Bar| self.bar_score(chip, bar, judging);
+        // A plume of the body's polarity: the best bar that ends at it, on its axis (the plume
+        // trails the body), with its middle beyond it and not too faint beside it (a line of
+        // noise along a strong body seen end on), is the body.
+        if let Some(blob) = blob {
+            let shape = &blob.shape;
+            let ends_at_blob = |bar: &Bar| {
+                let reach = shape.reach_along(bar.dir);
+                let line = Axis {
+                    centre: bar.centre,
+                    dir: bar.dir,
+                };
+                let (along, across) = line.local(shape.centre.x, shape.centre.y);
+                let on_axis = UNIFORM_BAR_HALF_SDS * shape.minor_sd + expected.diameter_px;
+                let contrast = libm::fabsf(blob.moments.mean_residual());
+                bar.contrast * bar_config.plume_max_contrast_ratio >= contrast
+                    && libm::fabsf(shape.axis.dot(bar.dir)) >= bar::PLUME_ALIGNED_COS
+                    && libm::fabsf(across) <= on_axis
+                    && libm::fabsf(along) > reach
+                    && libm::fabsf(libm::fabsf(along) - bar.half_length_px)
+                        <= reach + expected.diameter_px
+            };
+            let body = bars
+                .iter()
+                .filter(|b| ends_at_blob(b))
+                .filter_map(|b| score(b).map(|s| (s, *b)))
+                .max_by(|a, b| a.0.total_cmp(&b.0));
+            match body {
+                Some((_, bar)) => return SizeVerdict::BodyBeforePlume(bar),
+                None if stands => return SizeVerdict::ComponentStands,
+                None => {}
+            }
+        }
         SizeVerdict::Judged {
             best: bars
                 .iter()
@@ -739,6 +820,7 @@ impl<
             diag,
             gate,
             expected,
+            ..
         } = *judging;
         let shape = Shape {
             centre: bar.centre,
@@ -1067,6 +1149,9 @@ pub(crate) fn clamped_span(centre: f32, reach: f32, len: usize) -> (usize, usize
 enum SizeVerdict {
     /// It is the body: of its polarity, high contrast, clear of the edge.
     ComponentStands,
+    /// It is a plume of the body's polarity ([`Segmenter::is_plume_like`]), and the bar (the
+    /// best that ends at it) the body.
+    BodyBeforePlume(Bar),
     /// The best bar's score and the bar, and the component's own score and bar.
     Judged {
         best: Option<(f32, Bar)>,
@@ -1093,8 +1178,10 @@ struct Judging<'a> {
     diag: f32,
     /// Where the track expects the body.
     gate: Option<&'a TrackGate>,
-    /// The body's expected size.
+    /// The body's expected size ...
     expected: &'a ExpectedBody,
+    /// ... given by a measured range ([`Expectation::size_measured`]).
+    size_measured: bool,
 }
 
 /// Paints the runs of the components `roots` of `labeler` into `mask`.
@@ -1287,6 +1374,67 @@ mod tests {
                 && (target.shape.centre.y - 128.0).abs() < 3.0
                 && (90.0..=125.0).contains(&length),
             "{target:?}"
+        );
+    }
+
+    /// A faint body (9 grey levels on noise 3, 7 px wide, 110 px long) whose plume is of its
+    /// own polarity and much stronger (40 grey levels, 24 x 11 px at its tail): the plume is the
+    /// component that stands out, short for the body. With the size from a measured range the
+    /// bar ending at the plume along its axis, the body, is the target; with a size predicted
+    /// from the image the plume stands.
+    #[test]
+    fn a_faint_body_ending_at_a_plume_of_its_polarity_is_the_target() {
+        const SIDE: usize = 256;
+        let mut noise = crate::testing::noise_sequence(SIDE * SIDE, 11);
+        let mut data = [0u8; SIDE * SIDE];
+        for (i, v) in data.iter_mut().enumerate() {
+            let (x, y) = (i % SIDE, i / SIDE);
+            let on_body = (125..132).contains(&y) && (60..170).contains(&x);
+            let on_plume = (123..134).contains(&y) && (170..194).contains(&x);
+            let dark = if on_plume {
+                40.0
+            } else if on_body {
+                9.0
+            } else {
+                0.0
+            };
+            *v = (120.0 - dark + 3.0 * noise.next().unwrap_or(0.0)).clamp(0.0, 255.0) as u8;
+        }
+        let chip = ChipView::gray8(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        let expected = ExpectedBody {
+            diameter_px: 7.0,
+            span_px: 14.0,
+            length_px: 115.0,
+        };
+        let mut segmenter: Segmenter = Segmenter::new();
+        let mut detect = |size_measured| {
+            segmenter
+                .detect(
+                    &chip,
+                    &DetectConfig::DEFAULT,
+                    ImagePoint::new(128.0, 128.0),
+                    &Expectation {
+                        size: Some(expected),
+                        size_measured,
+                        ..Expectation::NONE
+                    },
+                )
+                .unwrap()
+        };
+        let target = detect(true);
+        let length = 2.0 * UNIFORM_BAR_HALF_SDS * target.shape.major_sd;
+        assert_eq!(target.found_by, FoundBy::Bar, "{target:?}");
+        assert!(
+            (target.shape.centre.x - 115.0).abs() < 10.0
+                && (target.shape.centre.y - 128.0).abs() < 3.0
+                && (90.0..=130.0).contains(&length),
+            "{target:?}"
+        );
+        let predicted = detect(false);
+        assert_eq!(predicted.found_by, FoundBy::Components, "{predicted:?}");
+        assert!(
+            (predicted.shape.centre.x - 181.5).abs() < 4.0,
+            "{predicted:?}"
         );
     }
 
