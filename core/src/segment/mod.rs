@@ -152,8 +152,8 @@ pub struct Expectation {
     pub proportions: Option<Proportions>,
     /// Whether `size` comes from a measured range (the sensor's), not one predicted from the
     /// recent frames' image ranges: only a measured size calls a strong component too short to
-    /// be the body ([`Segmenter::is_plume_like`]; a predicted one, read short, took a body seen
-    /// end on at 2 km for a plume).
+    /// be the body ([`BarConfig::plume_length_fraction`]; a predicted one, read short, took a
+    /// body seen end on at 2 km for a plume).
     pub size_measured: bool,
 }
 
