@@ -731,6 +731,7 @@ impl<
         // noise along a strong body seen end on), is the body.
         if let Some(blob) = blob {
             let shape = &blob.shape;
+            let contrast = libm::fabsf(blob.moments.mean_residual());
             let ends_at_blob = |bar: &Bar| {
                 let reach = shape.reach_along(bar.dir);
                 let line = Axis {
@@ -739,7 +740,6 @@ impl<
                 };
                 let (along, across) = line.local(shape.centre.x, shape.centre.y);
                 let on_axis = UNIFORM_BAR_HALF_SDS * shape.minor_sd + expected.diameter_px;
-                let contrast = libm::fabsf(blob.moments.mean_residual());
                 bar.contrast * bar_config.plume_max_contrast_ratio >= contrast
                     && libm::fabsf(shape.axis.dot(bar.dir)) >= bar::PLUME_ALIGNED_COS
                     && libm::fabsf(across) <= on_axis
@@ -1217,6 +1217,46 @@ fn target_of(selection: &Selection, components: usize, track: TrackUse) -> Targe
 mod tests {
     use super::*;
 
+    /// The side of the bar tests' chips, px.
+    const SIDE: usize = 256;
+
+    /// A `SIDE` x `SIDE` chip's grey levels: the sky at `sky`, darker by `dark(x, y)`, plus
+    /// `noise_sd` times the noise sequence of `seed`.
+    fn chip_data(
+        sky: f32,
+        noise_sd: f32,
+        seed: u32,
+        dark: impl Fn(usize, usize) -> f32,
+    ) -> [u8; SIDE * SIDE] {
+        let mut noise = crate::testing::noise_sequence(SIDE * SIDE, seed);
+        let mut data = [0u8; SIDE * SIDE];
+        for (i, v) in data.iter_mut().enumerate() {
+            let (x, y) = (i % SIDE, i / SIDE);
+            *v =
+                (sky - dark(x, y) + noise_sd * noise.next().unwrap_or(0.0)).clamp(0.0, 255.0) as u8;
+        }
+        data
+    }
+
+    /// The target a fresh segmenter detects in the `SIDE` x `SIDE` chip `data`, aiming at its
+    /// middle, for a body of the `expected` size (from a measured range where `size_measured`).
+    fn detect_sized(data: &[u8], expected: ExpectedBody, size_measured: bool) -> Target {
+        let chip = ChipView::gray8(data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        let mut segmenter: Segmenter = Segmenter::new();
+        segmenter
+            .detect(
+                &chip,
+                &DetectConfig::DEFAULT,
+                ImagePoint::new(128.0, 128.0),
+                &Expectation {
+                    size: Some(expected),
+                    size_measured,
+                    ..Expectation::NONE
+                },
+            )
+            .unwrap()
+    }
+
     /// Terrain (a dark band 12 px high across the bottom of the chip) and a dark bar 6 px wide and
     /// 80 px long: the terrain is the most significant component, the bar the one of the body's
     /// size. The terrain enters from the chip's edge, where no whole body can be: with an
@@ -1336,37 +1376,20 @@ mod tests {
     /// is the target.
     #[test]
     fn a_fragment_gives_way_to_the_bar_it_lies_on() {
-        const SIDE: usize = 256;
-        let mut noise = crate::testing::noise_sequence(SIDE * SIDE, 5);
-        let mut data = [0u8; SIDE * SIDE];
-        for (i, v) in data.iter_mut().enumerate() {
-            let (x, y) = (i % SIDE, i / SIDE);
+        let data = chip_data(120.0, 3.0, 5, |x, y| {
             let on_body = (125..132).contains(&y) && (73..183).contains(&x);
-            let dark = match (on_body, x >= 163) {
+            match (on_body, x >= 163) {
                 (false, _) => 0.0,
                 (true, false) => 9.0,
                 (true, true) => 20.0,
-            };
-            *v = (120.0 - dark + 3.0 * noise.next().unwrap_or(0.0)).clamp(0.0, 255.0) as u8;
-        }
-        let chip = ChipView::gray8(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+            }
+        });
         let expected = ExpectedBody {
             diameter_px: 7.0,
             span_px: 14.0,
             length_px: 115.0,
         };
-        let mut segmenter: Segmenter = Segmenter::new();
-        let target = segmenter
-            .detect(
-                &chip,
-                &DetectConfig::DEFAULT,
-                ImagePoint::new(128.0, 128.0),
-                &Expectation {
-                    size: Some(expected),
-                    ..Expectation::NONE
-                },
-            )
-            .unwrap();
+        let target = detect_sized(&data, expected, false);
         let length = 2.0 * UNIFORM_BAR_HALF_SDS * target.shape.major_sd;
         assert_eq!(target.found_by, FoundBy::Bar, "{target:?}");
         assert!(
@@ -1384,43 +1407,23 @@ mod tests {
     /// from the image the plume stands.
     #[test]
     fn a_faint_body_ending_at_a_plume_of_its_polarity_is_the_target() {
-        const SIDE: usize = 256;
-        let mut noise = crate::testing::noise_sequence(SIDE * SIDE, 11);
-        let mut data = [0u8; SIDE * SIDE];
-        for (i, v) in data.iter_mut().enumerate() {
-            let (x, y) = (i % SIDE, i / SIDE);
+        let data = chip_data(120.0, 3.0, 11, |x, y| {
             let on_body = (125..132).contains(&y) && (60..170).contains(&x);
             let on_plume = (123..134).contains(&y) && (170..194).contains(&x);
-            let dark = if on_plume {
+            if on_plume {
                 40.0
             } else if on_body {
                 9.0
             } else {
                 0.0
-            };
-            *v = (120.0 - dark + 3.0 * noise.next().unwrap_or(0.0)).clamp(0.0, 255.0) as u8;
-        }
-        let chip = ChipView::gray8(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+            }
+        });
         let expected = ExpectedBody {
             diameter_px: 7.0,
             span_px: 14.0,
             length_px: 115.0,
         };
-        let mut segmenter: Segmenter = Segmenter::new();
-        let mut detect = |size_measured| {
-            segmenter
-                .detect(
-                    &chip,
-                    &DetectConfig::DEFAULT,
-                    ImagePoint::new(128.0, 128.0),
-                    &Expectation {
-                        size: Some(expected),
-                        size_measured,
-                        ..Expectation::NONE
-                    },
-                )
-                .unwrap()
-        };
+        let detect = |size_measured| detect_sized(&data, expected, size_measured);
         let target = detect(true);
         let length = 2.0 * UNIFORM_BAR_HALF_SDS * target.shape.major_sd;
         assert_eq!(target.found_by, FoundBy::Bar, "{target:?}");
@@ -1444,34 +1447,17 @@ mod tests {
     /// search finds a piece of it. The component, the whole body, stays the target.
     #[test]
     fn a_strong_body_near_the_edge_is_not_given_up_for_a_piece_of_it() {
-        const SIDE: usize = 256;
-        let mut noise = crate::testing::noise_sequence(SIDE * SIDE, 7);
-        let mut data = [0u8; SIDE * SIDE];
-        for (i, v) in data.iter_mut().enumerate() {
-            let (x, y) = (i % SIDE, i / SIDE);
+        let data = chip_data(150.0, 2.0, 7, |x, y| {
             let on_body = (124..132).contains(&y) && (90..228).contains(&x);
             let on_fins = (118..138).contains(&y) && (90..104).contains(&x);
-            let dark = if on_body || on_fins { 60.0 } else { 0.0 };
-            *v = (150.0 - dark + 2.0 * noise.next().unwrap_or(0.0)).clamp(0.0, 255.0) as u8;
-        }
-        let chip = ChipView::gray8(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+            if on_body || on_fins { 60.0 } else { 0.0 }
+        });
         let expected = ExpectedBody {
             diameter_px: 8.0,
             span_px: 20.0,
             length_px: 138.0,
         };
-        let mut segmenter: Segmenter = Segmenter::new();
-        let target = segmenter
-            .detect(
-                &chip,
-                &DetectConfig::DEFAULT,
-                ImagePoint::new(128.0, 128.0),
-                &Expectation {
-                    size: Some(expected),
-                    ..Expectation::NONE
-                },
-            )
-            .unwrap();
+        let target = detect_sized(&data, expected, false);
         let length = 2.0 * UNIFORM_BAR_HALF_SDS * target.shape.major_sd;
         assert_eq!(target.found_by, FoundBy::Components, "{target:?}");
         assert!(
