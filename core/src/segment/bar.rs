@@ -316,15 +316,20 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         }
         bars.sort_unstable_by(|a, b| b.significance.total_cmp(&a.significance));
         // The plume's bars measured from the plume, the few strongest directions: each replaces
-        // the same bar measured from its middle (the plume's end is the one a faint tail's walk
-        // misses), else the weakest.
+        // the same bar measured from its middle where it is longer or has the stronger plume
+        // (the plume's end is the one a faint tail's walk misses), else the weakest.
         let from_plume = plume.and_then(|p| self.measure_from(p, config).ok());
         for bar in from_plume.into_iter().flatten().flatten() {
             match bars
                 .iter_mut()
                 .find(|b| same_bar(b, &bar, scale.diameter_px))
             {
-                Some(same) if same.half_length_px < bar.half_length_px => *same = bar,
+                Some(same)
+                    if same.half_length_px < bar.half_length_px
+                        || same.plume_sigma < bar.plume_sigma =>
+                {
+                    *same = bar
+                }
                 Some(_) => {}
                 None => {
                     if bars.is_full() {
@@ -767,20 +772,30 @@ impl<const CELLS: usize> BarSearch<CELLS> {
     }
 
     /// `bar` reaching on to the `plume`'s edge where a stretch of its tail faded under the
-    /// plume's glow parts them (no farther than the body can look, and only where the plume lies
-    /// on its line), with the plume's glow measured beyond it: the plume marks the tail.
+    /// plume's glow parts them (no farther than the body can look, and only where its line
+    /// passes within a diameter of the plume's extent across it), with the plume's glow measured
+    /// beyond it or at the plume's centroid, whichever is the stronger: the plume marks the
+    /// tail.
     fn reaching(&self, bar: Bar, plume: &Shape, scale: &Scale) -> Bar {
         let to_plume = plume.centre - bar.centre;
-        let (along, across) = (to_plume.dot(bar.dir), to_plume.dot(bar.dir.perpendicular()));
+        let normal = bar.dir.perpendicular();
+        let (along, across) = (to_plume.dot(bar.dir), to_plume.dot(normal));
         let way = if along >= 0.0 { 1.0 } else { -1.0 };
         let gap = libm::fabsf(along) - plume.reach_along(bar.dir) - bar.half_length_px;
-        let on_line = libm::fabsf(across) <= scale.diameter_px;
+        let on_line = libm::fabsf(across) <= scale.diameter_px + plume.reach_along(normal);
         if !(on_line && gap > 0.0 && 2.0 * bar.half_length_px + gap <= scale.longest_px) {
             return bar;
         }
         let half_length_px = bar.half_length_px + 0.5 * gap;
         let centre = bar.centre + bar.dir * (way * 0.5 * gap);
-        let glow = self.glow_beyond(centre, bar.dir, way * half_length_px, way, scale);
+        // The glow beyond the reached end, or at the plume's centroid (the line may pass it
+        // aside: a plume blown off the axis, a line refined a degree or two off it).
+        let at_plume = self
+            .section_at(plume.centre, normal, scale.flank_px)
+            .map_or(0.0, |s| s.glow() / self.contrast_noise());
+        let glow = self
+            .glow_beyond(centre, bar.dir, way * half_length_px, way, scale)
+            .max(at_plume);
         Bar {
             centre,
             half_length_px,
@@ -1114,14 +1129,14 @@ mod tests {
     }
 
     /// A faint body (8 grey levels, 110 px along `DIR` through `CENTRE`) whose last 20 px fade
-    /// into the wide glow of a plume 12 px beyond its tail, and, where `runs_on`, a filament as
-    /// dark running on from its nose along its line for 70 px.
-    fn fading_body(runs_on: bool) -> [u8; SIDE * SIDE] {
+    /// into the wide glow of a plume 12 px beyond its tail and `aside_px` off its line, and,
+    /// where `runs_on`, a filament as dark running on from its nose along its line for 70 px.
+    fn fading_body(runs_on: bool, aside_px: f32) -> [u8; SIDE * SIDE] {
         let (centre, dir) = fading_line();
         let (nose, tail) = (centre + dir * 55.0, centre - dir * 55.0);
         let faded = tail + dir * 20.0;
         let beyond = nose + dir * if runs_on { 70.0 } else { 0.0 };
-        let plume = tail - dir * 12.0;
+        let plume = tail - dir * 12.0 + dir.perpendicular() * aside_px;
         let mut noise = noise_sequence(SIDE * SIDE, 7);
         let mut data = [0u8; SIDE * SIDE];
         for (i, v) in data.iter_mut().enumerate() {
@@ -1161,7 +1176,7 @@ mod tests {
         let tail_end = |bar: &Bar| (bar.centre - centre).dot(dir) - bar.half_length_px;
         let config = BarConfig::DEFAULT;
         for runs_on in [false, true] {
-            let data = fading_body(runs_on);
+            let data = fading_body(runs_on, 0.0);
             let chip = ChipView::gray8(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
             let mut search: BarSearch<4096> = BarSearch::new();
             assert!(search.prepare(&chip, 3.0, -1.0, &expected(), 160.0, &config));
@@ -1180,6 +1195,44 @@ mod tests {
             assert!(libm::fabsf(tail_end(&bar) - edge) < 4.0, "{edge} {bar:?}");
             assert!(bar.plume_sigma >= config.plume_min_sigma, "{bar:?}");
         }
+    }
+
+    /// A plume whose glow lies a diameter and more off the body's line (blown aside, or the
+    /// body's line refined a little off it) still marks the tail: measured from the plume, the
+    /// body reaches on to it, the plume's glow measured at its centroid.
+    #[test]
+    fn a_plume_beside_the_line_still_marks_the_tail() {
+        let (centre, dir) = fading_line();
+        let aside = 9.0;
+        let glow = Shape {
+            centre: centre - dir * 67.0 + dir.perpendicular() * aside,
+            axis: ImagePoint::new(1.0, 0.0),
+            major_sd: 4.0,
+            minor_sd: 4.0,
+        };
+        let config = BarConfig::DEFAULT;
+        let data = fading_body(false, aside);
+        let chip = ChipView::gray8(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        let mut search: BarSearch<4096> = BarSearch::new();
+        assert!(search.prepare(&chip, 3.0, -1.0, &expected(), 160.0, &config));
+        let bar = strongest_from(&search, &glow, &config);
+        assert!(
+            libm::fabsf(bar.dir.dot(dir)) > libm::cosf(6f32.to_radians()),
+            "{bar:?}"
+        );
+        assert!(bar.plume_sigma >= config.plume_min_sigma, "{bar:?}");
+        // Walked from its middle the same body has no plume; the search given the plume keeps
+        // the bar that has one.
+        let walked = search.measure(centre, dir, &config).expect("bar");
+        assert!(walked.plume_sigma < config.plume_min_sigma, "{walked:?}");
+        let mut bars = heapless::Vec::new();
+        search.search(&config, Some(&glow), &mut bars);
+        assert!(
+            bars.iter()
+                .any(|b| libm::fabsf(b.dir.dot(dir)) > 0.99
+                    && b.plume_sigma >= config.plume_min_sigma),
+            "{bars:?}"
+        );
     }
 
     /// A body that could not be seen whole in the chip (a range 1e-30 m away) is not searched
