@@ -23,7 +23,8 @@
 //!    band or filament longer than the body, or one that runs into the chip's edge, is refused;
 //!    and the glow of a plume of the other polarity just beyond an end is measured.
 //! 4. Where the chip has a plume, the bars that end at it are measured too
-//!    ([`BarSearch::measure_from`]): of the lines that start at the plume's edge, the
+//!    ([`BarSearch::measure_from`]): of the lines that start at the plume's edge (along its
+//!    axis only, where it is elongated: a plume trails the body), the
 //!    [`PLUME_DIRECTIONS`] of highest contrast among their neighbours, for the selection to
 //!    judge (a dark cloud band's edge beside the plume can outdo a faint body's line by contrast
 //!    alone, not by its width). A faint body's own response can be lost among a cloud's, but
@@ -360,11 +361,14 @@ impl<const CELLS: usize> BarSearch<CELLS> {
             let centre = plume.centre + dir * (plume.reach_along(dir) + 0.5 * scale.length_px);
             (centre, dir)
         };
-        // Each line's mean contrast, once (NaN where it leaves the grid).
+        // Each line's mean contrast, once (NaN where it leaves the grid, or where it leaves an
+        // elongated plume across its axis).
         let mut contrast = [f32::NAN; 2 * MAX_DIRECTIONS];
         for (k, c) in contrast.iter_mut().take(directions).enumerate() {
             let (centre, dir) = line(k);
-            *c = self.line_contrast(centre, dir, scale).unwrap_or(f32::NAN);
+            if trails_along(plume, dir) {
+                *c = self.line_contrast(centre, dir, scale).unwrap_or(f32::NAN);
+            }
         }
         let contrast_of = |k: usize| contrast.get(k % directions).copied().unwrap_or(f32::NAN);
         // The strongest local maxima of the contrast round the plume, strongest first.
@@ -783,7 +787,11 @@ impl<const CELLS: usize> BarSearch<CELLS> {
         let way = if along >= 0.0 { 1.0 } else { -1.0 };
         let gap = libm::fabsf(along) - plume.reach_along(bar.dir) - bar.half_length_px;
         let on_line = libm::fabsf(across) <= scale.diameter_px + plume.reach_along(normal);
-        if !(on_line && gap > 0.0 && 2.0 * bar.half_length_px + gap <= scale.longest_px) {
+        if !(on_line
+            && trails_along(plume, bar.dir)
+            && gap > 0.0
+            && 2.0 * bar.half_length_px + gap <= scale.longest_px)
+        {
             return bar;
         }
         let half_length_px = bar.half_length_px + 0.5 * gap;
@@ -891,6 +899,18 @@ const PEAK_PARALLEL_COS: f32 = 0.94;
 /// The smallest |cosine| between a bar and the axis of a plume of the body's polarity at its
 /// end for the two to be a body and its plume (about 20 degrees: a short plume's axis is coarse).
 pub const PLUME_ALIGNED_COS: f32 = 0.94;
+
+/// A plume at least this elongated (its shape's major over minor standard deviation) trails
+/// the body along its own axis.
+pub const PLUME_MIN_ELONGATION: f32 = 1.5;
+
+/// Whether a body along `dir` can end at `plume`: a plume that is round, or elongated along
+/// `dir` (within [`PLUME_ALIGNED_COS`]; a cloud band ending at it across its axis is not the
+/// body).
+fn trails_along(plume: &Shape, dir: ImagePoint) -> bool {
+    plume.elongation() < PLUME_MIN_ELONGATION
+        || libm::fabsf(plume.axis.dot(dir)) >= PLUME_ALIGNED_COS
+}
 
 /// The smallest |cosine| between two lines taken as parallel (about 10 degrees).
 pub const PARALLEL_COS: f32 = 0.985;
@@ -1126,6 +1146,25 @@ mod tests {
         let mut bars = heapless::Vec::new();
         search.search(&config, Some(&plume), &mut bars);
         assert!(bars.iter().any(is_body), "{bars:?}");
+        // A plume elongated along the body's axis trails the body: the filament, 55 degrees
+        // across that axis, does not end at it (no line from it is measured), and the
+        // strongest line from it is the body's.
+        let trailing = Shape {
+            axis: dir,
+            major_sd: 8.0,
+            minor_sd: 3.0,
+            ..plume
+        };
+        let strongest = strongest_from(&search, &trailing, &config);
+        assert!(is_body(&strongest), "{strongest:?}");
+        let ranked = search.measure_from(&trailing, &config).expect("lines");
+        assert!(
+            ranked
+                .iter()
+                .flatten()
+                .all(|b| libm::fabsf(b.dir.y) < libm::cosf(20f32.to_radians())),
+            "{ranked:?}"
+        );
     }
 
     /// A faint body (8 grey levels, 110 px along `DIR` through `CENTRE`) whose last 20 px fade
