@@ -137,6 +137,15 @@ impl<'a> ChipView<'a> {
         matches!(self.samples, Samples::Gray16(_))
     }
 
+    /// The largest sample the chip's depth holds: a pixel at it is saturated (its radiance is
+    /// only known to be at least that).
+    pub fn full_scale(&self) -> u16 {
+        match self.samples {
+            Samples::Gray8(_) => u16::from(u8::MAX),
+            Samples::Gray16(_) => u16::MAX,
+        }
+    }
+
     /// The sample at column `x`, row `y`, or 0 outside the chip.
     #[inline]
     pub fn get(&self, x: usize, y: usize) -> u16 {

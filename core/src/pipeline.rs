@@ -388,6 +388,7 @@ impl<
                 origin,
                 range_m: input.sensor_range_m,
                 plume_at_tail: hypothesis.silhouette.plume_at_tail,
+                cluttered_sky: self.detect.background().follows_corridor(),
             };
             measurement.fitted = grey_fit::fit::<OUTLINE_COLUMNS>(
                 &input,

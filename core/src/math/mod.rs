@@ -26,3 +26,24 @@ pub fn accumulate<const N: usize>(
         }
     }
 }
+
+/// [`accumulate`] over the parameters `indices` alone (ascending, each once): where the
+/// gradient `g` is zero elsewhere, the same sums at the cost of those.
+pub fn accumulate_at<const N: usize>(
+    jtj: &mut SMatrix<f32, N, N>,
+    jtr: &mut SVector<f32, N>,
+    g: &SVector<f32, N>,
+    indices: impl Iterator<Item = usize> + Clone,
+    w: f32,
+    r: f32,
+) {
+    let mut rest = indices.clone();
+    for a in indices {
+        let wa = w * g[a];
+        jtr[a] += wa * r;
+        for b in rest.clone() {
+            jtj[(a, b)] += wa * g[b];
+        }
+        rest.next();
+    }
+}
