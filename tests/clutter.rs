@@ -43,13 +43,14 @@ fn run_clutter_clip(name: &str, range: RangeArg) -> (usize, f64, f64) {
 /// place, is the target (the terrain or the plume was before: no frame had a pose). Since the
 /// sky is taken from above the terrain (`segment/terrain.rs`), the terrain stands out whole from
 /// the lower edge and its ridge is no candidate: 18 -> 20 frames with a pose, blind IoU 0.74 ->
-/// 0.79, pitch 0.28 -> 0.29 deg/km.
+/// 0.79, pitch 0.28 -> 0.29 deg/km (0.36 at 9b6f9d8; 0.24 since the grey-level fit takes the body
+/// as opaque over a sky it fits in bins along it, where the sky beside it is cluttered).
 #[test]
 fn terrain_and_a_plume_do_not_take_the_bodys_place() {
     let (poses, pitch, iou) = run_clutter_clip("small-clutter-terrain", RangeArg::Auto);
     assert!(poses >= 19, "{poses} of 20 frames with a pose");
     assert!(iou >= 0.75, "median IoU of the blind mask {iou}");
-    assert!(pitch <= 0.5, "median pitch error {pitch} deg/km");
+    assert!(pitch <= 0.35, "median pitch error {pitch} deg/km");
 }
 
 /// The same clip without the range: the terrain reaching the chip's edge is no candidate, and
@@ -83,14 +84,15 @@ fn terrain_is_no_candidate_without_a_range_either() {
 /// since the bar ending at the plume is a candidate and a bar's direction holds in clutter, 3.3
 /// with the model reading the nose, 2.5 since the nose's ramp no longer extrapolates past the
 /// model's nose, 1.4 since the width profile of a faint body in a cluttered sky sums only the
-/// body's own width; the same scene over 120 frames went from 4.7 to 1.2 to 0.33). The blind
-/// mask's median IoU went from 0.41 to 0.49.
+/// body's own width, 1.2 at 9b6f9d8, 0.70 since the grey-level fit takes the body as opaque over
+/// a sky it fits in bins along it; the same scene over 120 frames went from 4.7 to 1.2 to 0.33
+/// to 0.27). The blind mask's median IoU went from 0.41 to 0.49.
 #[test]
 fn a_faint_body_is_found_beside_its_plume_and_filaments() {
     let (poses, pitch, iou) = run_clutter_clip("small-clutter-plume", RangeArg::Auto);
     assert!(poses >= 19, "{poses} of 20 frames with a pose");
     assert!(iou >= 0.45, "median IoU of the blind mask {iou}");
-    assert!(pitch <= 2.0, "median pitch error {pitch} deg/km");
+    assert!(pitch <= 1.0, "median pitch error {pitch} deg/km");
 }
 
 /// The scene of `fixtures/small-clutter-plume` drawn at three other seeds (its physics drawn
@@ -141,11 +143,13 @@ fn median(frames: &[FrameErrors], error: fn(&FrameErrors) -> f64) -> f64 {
 /// clutter (at 41d34c1 1.2 and 13; at 9b818f5 0.52 and 5.6; at 9b8cacd, the model reading the
 /// nose of a body faded before its plume or run on along a filament, 0.46 and 4.5; now, the
 /// nose's ramp held to the model's nose and a faint body's width profile summed over its own
-/// width where the sky beside it is cluttered, 0.33 and 3.8), 0.27 and 4.5 on a clear sky (then
-/// 0.10 and 1.5; at 9b8cacd 0.10 and 1.1; now 0.11 and 0.94).
+/// width where the sky beside it is cluttered, 0.33 and 3.8; since the grey-level fit takes the
+/// body as opaque over a sky it fits in bins along it, where the sky beside it is cluttered,
+/// 0.27 and 2.5), 0.27 and 4.5 on a clear sky (then 0.10 and 1.5; at 9b8cacd 0.10 and 1.1; at
+/// 9b6f9d8 0.11 and 0.94; now 0.11 and 1.07).
 #[test]
 fn a_faint_body_under_a_plume_keeps_its_attitude_over_three_seeds() {
-    for (clear, max_pitch, max_yaw) in [(false, 0.42, 4.2), (true, 0.15, 1.5)] {
+    for (clear, max_pitch, max_yaw) in [(false, 0.33, 3.0), (true, 0.15, 1.5)] {
         let (frames, with_truth) = faint_body_frames(clear);
         let (pitch, yaw) = (median(&frames, |f| f.pitch), median(&frames, |f| f.yaw));
         println!(
