@@ -86,7 +86,7 @@ fn terrain_is_no_candidate_without_a_range_either() {
 /// model's nose, 1.4 since the width profile of a faint body in a cluttered sky sums only the
 /// body's own width, 1.2 at 9b6f9d8, 0.70 since the grey-level fit takes the body as opaque over
 /// a sky it fits in bins along it; the same scene over 120 frames went from 4.7 to 1.2 to 0.33
-/// to 0.27). The blind mask's median IoU went from 0.41 to 0.49.
+/// to 0.26). The blind mask's median IoU went from 0.41 to 0.49.
 #[test]
 fn a_faint_body_is_found_beside_its_plume_and_filaments() {
     let (poses, pitch, iou) = run_clutter_clip("small-clutter-plume", RangeArg::Auto);
@@ -145,7 +145,7 @@ fn median(frames: &[FrameErrors], error: fn(&FrameErrors) -> f64) -> f64 {
 /// nose's ramp held to the model's nose and a faint body's width profile summed over its own
 /// width where the sky beside it is cluttered, 0.33 and 3.8; since the grey-level fit takes the
 /// body as opaque over a sky it fits in bins along it, where the sky beside it is cluttered,
-/// 0.27 and 2.5), 0.27 and 4.5 on a clear sky (then 0.10 and 1.5; at 9b8cacd 0.10 and 1.1; at
+/// 0.26 and 2.8), 0.27 and 4.5 on a clear sky (then 0.10 and 1.5; at 9b8cacd 0.10 and 1.1; at
 /// 9b6f9d8 0.11 and 0.94; now 0.11 and 1.07).
 #[test]
 fn a_faint_body_under_a_plume_keeps_its_attitude_over_three_seeds() {
