@@ -35,7 +35,7 @@ use crate::table_match::{MatchedPose, Measurement, TableMatch};
 use crate::temporal::{Estimate, Observation, Prediction, Temporal, YawChoice};
 use crate::track::Track;
 use crate::uncertainty::{self, AngleVariance, EndSd};
-use crate::world::{self, Motion, Mount, Side, Station, WorldStage};
+use crate::world::{Flight, Motion, Mount, Side, Station, WorldStage};
 
 /// A frame's input, checked: the range to use and the camera valid.
 struct CheckedInput<'a> {
@@ -354,10 +354,11 @@ impl<
                     self.detect.clear_mask();
                 }
             })?;
+        let flight = self.flight(input);
         let prior = extremes::Prior {
             nose_dir,
             diameter_px: expected.map(|e| e.diameter_px),
-            flight_dir: self.flight_in_chip(input),
+            flight_dir: flight.and_then(|f| f.in_chip(config.world.min_flight_across)),
         };
         let silhouette = self.silhouette(chip, &target, &prior)?;
         let target = self
@@ -389,6 +390,7 @@ impl<
                 range_m: input.sensor_range_m,
                 plume_at_tail: hypothesis.silhouette.plume_at_tail,
                 cluttered_sky: self.detect.background().follows_corridor(),
+                flight_tilt_deg: flight.and_then(|f| f.tilt_deg()),
             };
             measurement.fitted = grey_fit::fit::<OUTLINE_COLUMNS>(
                 &input,
@@ -408,26 +410,20 @@ impl<
         Ok((target, measurement))
     }
 
-    /// The direction in which the body flies across the chip of `input`, where the frame comes
-    /// with the mount's pointing and the recent frames' positions give a velocity at its time
-    /// ([`WorldStage::velocity_ahead`]) far enough across the line of sight through the chip's
-    /// middle ([`world::flight_in_chip`]).
-    fn flight_in_chip(&self, input: &CheckedInput) -> Option<ImagePoint> {
-        let config = &self.config.world;
+    /// How the body flies as the camera sees it at the chip of `input`'s middle, where the frame
+    /// comes with the mount's pointing and the recent frames' positions give a velocity at its
+    /// time ([`WorldStage::velocity_ahead`]).
+    fn flight(&self, input: &CheckedInput) -> Option<Flight> {
         let mount = input.mount?;
-        let velocity = self.world.velocity_ahead(input.time_s, config)?;
+        let velocity = self
+            .world
+            .velocity_ahead(input.time_s, &self.config.world)?;
         let chip = input.chip;
         let middle = ImagePoint::new(
             chip.x0() as f32 + 0.5 * chip.width() as f32,
             chip.y0() as f32 + 0.5 * chip.height() as f32,
         );
-        world::flight_in_chip(
-            &velocity,
-            &mount,
-            &self.camera,
-            middle,
-            config.min_flight_across,
-        )
+        Some(Flight::new(&velocity, &mount, &self.camera, middle))
     }
 
     /// The body's size in the chip at `range_m` m (None for a range that gives no finite size).

@@ -217,7 +217,7 @@ pub struct WorldConfig {
     /// trend's.
     pub side_margin_deg: f64,
     /// The velocity predicted for a frame from the positions before it tells the silhouette
-    /// stage which end is the nose ([`flight_in_chip`]) where it lies at least this far across
+    /// stage which end is the nose ([`Flight::in_chip`]) where it lies at least this far across
     /// the line of sight (the sine of its angle to it): its image then points within a few
     /// degrees of the body's axis, however the body's ends look (a plume of the body's own
     /// polarity tapers like a nose).
@@ -389,36 +389,63 @@ pub fn velocity_at<'a>(
     velocity.iter().all(|v| v.is_finite()).then_some(velocity)
 }
 
-/// The direction in the chip (unit, chip px axes) in which a body flying with `velocity_enu`
-/// (m/s in E) at the line of sight through the full-frame pixel `at_px` moves across the image,
-/// for a camera `camera` pointed as `mount`; None where the velocity lies less than
-/// `min_across` (the sine of its angle) across the line of sight, or is no velocity.
-pub fn flight_in_chip(
-    velocity_enu: &[f64; 3],
-    mount: &Mount,
-    camera: &Camera,
-    at_px: ImagePoint,
-    min_across: f64,
-) -> Option<ImagePoint> {
-    let v = mount.rotation_camera_to_world().transpose() * Vector3::from(*velocity_enu);
-    let (fx, fy) = (f64::from(camera.fx), f64::from(camera.fy));
-    let sight = Vector3::new(
-        (f64::from(at_px.x) - f64::from(camera.cx)) / fx,
-        (f64::from(at_px.y) - f64::from(camera.cy)) / fy,
-        1.0,
-    );
-    let speed = v.norm();
-    let along = v.dot(&sight) / sight.norm_squared();
-    let across = (v - sight * along).norm();
-    if !(speed.is_finite() && speed > 0.0 && across >= min_across * speed) {
-        return None;
+/// A velocity as the camera sees it at one line of sight: the velocity in the camera frame C
+/// and the line of sight through a full-frame pixel (C, unit depth).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Flight {
+    /// The velocity in C, m/s.
+    velocity: Vector3<f64>,
+    /// The line of sight, with z = 1.
+    sight: Vector3<f64>,
+    /// The camera's focal lengths, px.
+    focal: (f64, f64),
+}
+
+impl Flight {
+    /// A body flying with `velocity_enu` (m/s in E) seen by a camera `camera` pointed as `mount`
+    /// at the line of sight through the full-frame pixel `at_px`.
+    pub fn new(velocity_enu: &[f64; 3], mount: &Mount, camera: &Camera, at_px: ImagePoint) -> Self {
+        let velocity = mount.rotation_camera_to_world().transpose() * Vector3::from(*velocity_enu);
+        let focal = (f64::from(camera.fx), f64::from(camera.fy));
+        let sight = Vector3::new(
+            (f64::from(at_px.x) - f64::from(camera.cx)) / focal.0,
+            (f64::from(at_px.y) - f64::from(camera.cy)) / focal.1,
+            1.0,
+        );
+        Flight {
+            velocity,
+            sight,
+            focal,
+        }
     }
-    // The image of a point moving along v from depth z: (fx (v.x - x v.z), fy (v.y - y v.z)) / z.
-    let du = fx * (v.x - sight.x * v.z);
-    let dv = fy * (v.y - sight.y * v.z);
-    let norm = libm::hypot(du, dv);
-    (norm > 0.0 && norm.is_finite())
-        .then(|| ImagePoint::new((du / norm) as f32, (dv / norm) as f32))
+
+    /// The direction in the chip (unit, chip px axes) in which the body moves across the image;
+    /// None where the velocity lies less than `min_across` (the sine of its angle) across the
+    /// line of sight, or is no velocity.
+    pub fn in_chip(&self, min_across: f64) -> Option<ImagePoint> {
+        let (v, sight) = (&self.velocity, &self.sight);
+        let speed = v.norm();
+        let along = v.dot(sight) / sight.norm_squared();
+        let across = (v - sight * along).norm();
+        if !(speed.is_finite() && speed > 0.0 && across >= min_across * speed) {
+            return None;
+        }
+        // The image of a point moving along v from depth z: (fx (v.x - x v.z), fy (v.y - y v.z)) / z.
+        let du = self.focal.0 * (v.x - sight.x * v.z);
+        let dv = self.focal.1 * (v.y - sight.y * v.z);
+        let norm = libm::hypot(du, dv);
+        (norm > 0.0 && norm.is_finite())
+            .then(|| ImagePoint::new((du / norm) as f32, (dv / norm) as f32))
+    }
+
+    /// The velocity's angle out of the image plane (to the plane normal to the line of sight),
+    /// deg in [0, 90]: the tilt of a body flying along it (a projectile flies within its angle
+    /// of attack of it); None where there is no velocity.
+    pub fn tilt_deg(&self) -> Option<f32> {
+        let sine =
+            self.velocity.dot(&self.sight).abs() / (self.velocity.norm() * self.sight.norm());
+        (sine.is_finite() && sine <= 1.0).then(|| libm::asin(sine).to_degrees() as f32)
+    }
 }
 
 /// The world stage's state: the body origin's recent positions, for the velocity.
@@ -585,7 +612,8 @@ mod tests {
             cy: 400.0,
         };
         let centre = ImagePoint::new(500.0, 400.0);
-        let flight = |v: [f64; 3], at: ImagePoint| flight_in_chip(&v, &mount, &camera, at, 0.5);
+        let flight =
+            |v: [f64; 3], at: ImagePoint| Flight::new(&v, &mount, &camera, at).in_chip(0.5);
         let close = |got: Option<ImagePoint>, want: (f32, f32)| {
             got.is_some_and(|p| (p.x - want.0).abs() < 1e-5 && (p.y - want.1).abs() < 1e-5)
         };
@@ -601,6 +629,34 @@ mod tests {
             None
         );
         assert_eq!(flight([0.0, 0.0, 0.0], centre), None);
+    }
+
+    /// The same camera, by hand: flying north, or north and climbing, the velocity lies in the
+    /// image plane (tilt 0); east, along the line of sight (90); 20 deg from north towards east,
+    /// 20 deg out of the plane; east and a tenth of it south is along the line of sight through
+    /// (600, 400) (90 there).
+    #[test]
+    fn the_flight_tilt_by_hand() {
+        let mount = Mount::new_checked(90.0, 0.0).unwrap();
+        let camera = Camera {
+            fx: 1000.0,
+            fy: 1000.0,
+            cx: 500.0,
+            cy: 400.0,
+        };
+        let centre = ImagePoint::new(500.0, 400.0);
+        let tilt = |v: [f64; 3], at: ImagePoint| Flight::new(&v, &mount, &camera, at).tilt_deg();
+        let close = |got: Option<f32>, want: f32| got.is_some_and(|t| (t - want).abs() < 1e-3);
+        assert!(close(tilt([0.0, 250.0, 0.0], centre), 0.0));
+        assert!(close(tilt([0.0, 200.0, 150.0], centre), 0.0));
+        assert!(close(tilt([250.0, 0.0, 0.0], centre), 90.0));
+        let (s, c) = (20f64.to_radians().sin(), 20f64.to_radians().cos());
+        assert!(close(tilt([s * 250.0, c * 250.0, 0.0], centre), 20.0));
+        assert!(close(
+            tilt([250.0, -25.0, 0.0], ImagePoint::new(600.0, 400.0)),
+            90.0
+        ));
+        assert_eq!(tilt([0.0, 0.0, 0.0], centre), None);
     }
 
     #[test]

@@ -219,7 +219,7 @@ pub struct Prior {
     /// The body's diameter expected from the range, px.
     pub diameter_px: Option<f32>,
     /// The direction in which the body flies across the chip, from the velocity of recent
-    /// frames ([`crate::world::flight_in_chip`]): a projectile flies nose first, so it tells the
+    /// frames ([`crate::world::Flight::in_chip`]): a projectile flies nose first, so it tells the
     /// nose from the tail before anything in the image does, whatever the ends look like (a
     /// plume of the body's own polarity tapers like a nose; a bright cloud beyond the nose of a
     /// dark body looks like a plume).
