@@ -1,7 +1,7 @@
-//! Detection in clutter (issue 14, in progress): the bundled clutter clips rendered by the
-//! simulator's clutter physics (`fixtures/small-clutter-*`, `docs/simulator.md`). These tests
-//! hold what detection achieves today, so that it does not slip back; the issue's own targets
-//! (95 % of frames, mask IoU 0.85, pitch 0.5 and chosen yaw 4 deg/km) are not met yet.
+//! Detection in clutter (issue 14): the bundled clutter clips rendered by the simulator's
+//! clutter physics (`fixtures/small-clutter-*`, `docs/simulator.md`). With the range known,
+//! both hold the issue's pose targets (95 % of frames, pitch 0.5 and chosen yaw 4 deg/km); the
+//! other tests hold what detection achieves today, so that it does not slip back.
 
 use imade_host::eval::paper::Parameter;
 use imade_host::eval::pose_errors::FrameErrors;
@@ -12,18 +12,16 @@ use imade_host::sim::{Scenario, Simulation};
 use std::path::Path;
 
 /// The evaluation of the bundled clip `name` run with `range`: frames with a pose, median
-/// pitch error (deg/km), median IoU of the blind mask.
-fn run_clutter_clip(name: &str, range: RangeArg) -> (usize, f64, f64) {
+/// pitch and chosen yaw errors (deg/km), median IoU of the blind mask.
+fn run_clutter_clip(name: &str, range: RangeArg) -> (usize, f64, f64, f64) {
     let clip = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../fixtures")
         .join(name);
     let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("{name}-{range:?}"));
     let _ = std::fs::remove_dir_all(&out);
     let evaluation = imade_tests::run_and_evaluate(&clip, "bundled", range, true, &out);
-    let pitch = evaluation
-        .pose
-        .stats(Parameter::Pitch)
-        .map_or(f64::NAN, |s| s.median);
+    let median = |p| evaluation.pose.stats(p).map_or(f64::NAN, |s| s.median);
+    let (pitch, yaw) = (median(Parameter::Pitch), median(Parameter::Yaw));
     let iou = evaluation
         .segmentation
         .iter()
@@ -32,9 +30,9 @@ fn run_clutter_clip(name: &str, range: RangeArg) -> (usize, f64, f64) {
         .map_or(f64::NAN, |s| s.median);
     let poses = evaluation.pose.frames_with_pose;
     println!(
-        "{name}, range {range:?}: {poses}/20 poses, median pitch {pitch:.3} deg/km, blind IoU {iou:.3}"
+        "{name}, range {range:?}: {poses}/20 poses, median pitch {pitch:.3}, chosen yaw {yaw:.2} deg/km, blind IoU {iou:.3}"
     );
-    (poses, pitch, iou)
+    (poses, pitch, yaw, iou)
 }
 
 /// A dark body of 6.4 noise deviations with a bright plume, a hillside entering from the chip's
@@ -43,14 +41,16 @@ fn run_clutter_clip(name: &str, range: RangeArg) -> (usize, f64, f64) {
 /// place, is the target (the terrain or the plume was before: no frame had a pose). Since the
 /// sky is taken from above the terrain (`segment/terrain.rs`), the terrain stands out whole from
 /// the lower edge and its ridge is no candidate: 18 -> 20 frames with a pose, blind IoU 0.74 ->
-/// 0.79, pitch 0.28 -> 0.29 deg/km (0.36 at 9b6f9d8; 0.24 since the grey-level fit takes the body
-/// as opaque over a sky it fits in bins along it, where the sky beside it is cluttered).
+/// 0.79, pitch 0.28 -> 0.29 deg/km (0.36 at 9b6f9d8; 0.31 since the grey-level fit takes the body
+/// as opaque over a sky it fits in bins along it, where the sky beside it is cluttered; 0.27,
+/// chosen yaw 3.7 -> 2.3, since its tilt is drawn to the velocity's there).
 #[test]
 fn terrain_and_a_plume_do_not_take_the_bodys_place() {
-    let (poses, pitch, iou) = run_clutter_clip("small-clutter-terrain", RangeArg::Auto);
+    let (poses, pitch, yaw, iou) = run_clutter_clip("small-clutter-terrain", RangeArg::Auto);
     assert!(poses >= 19, "{poses} of 20 frames with a pose");
     assert!(iou >= 0.75, "median IoU of the blind mask {iou}");
-    assert!(pitch <= 0.35, "median pitch error {pitch} deg/km");
+    assert!(pitch <= 0.3, "median pitch error {pitch} deg/km");
+    assert!(yaw <= 3.0, "median chosen yaw error {yaw} deg/km");
 }
 
 /// The same clip without the range: the terrain reaching the chip's edge is no candidate, and
@@ -66,7 +66,7 @@ fn terrain_and_a_plume_do_not_take_the_bodys_place() {
 /// from the image in clutter is issue 15's).
 #[test]
 fn terrain_is_no_candidate_without_a_range_either() {
-    let (poses, _, iou) = run_clutter_clip("small-clutter-terrain", RangeArg::Ignore);
+    let (poses, _, _, iou) = run_clutter_clip("small-clutter-terrain", RangeArg::Ignore);
     assert!(poses >= 19, "{poses} of 20 frames with a pose");
     assert!(iou >= 0.7, "median IoU of the blind mask {iou}");
 }
@@ -85,15 +85,18 @@ fn terrain_is_no_candidate_without_a_range_either() {
 /// with the model reading the nose, 2.5 since the nose's ramp no longer extrapolates past the
 /// model's nose, 1.4 since the width profile of a faint body in a cluttered sky sums only the
 /// body's own width, 1.2 at 9b6f9d8, 0.70 since the grey-level fit takes the body as opaque over
-/// a sky it fits in bins along it, 0.48 since it also starts at the velocity's tilt; the same
-/// scene over 120 frames went from 4.7 to 1.2 to 0.33 to 0.26 to 0.22). The blind mask's median
-/// IoU went from 0.41 to 0.49.
+/// a sky it fits in bins along it, 0.48 since it also starts at the velocity's tilt, 0.46 since
+/// its tilt is drawn to the velocity's; the same scene over 120 frames went from 4.7 to 1.2 to
+/// 0.33 to 0.26 to 0.22). The chosen yaw, near broadside here (a pixel of length is several
+/// degrees of tilt), went from 13 at 9b6f9d8 to 6.4 to 3.1 deg/km with the velocity's tilt. The
+/// blind mask's median IoU went from 0.41 to 0.49.
 #[test]
 fn a_faint_body_is_found_beside_its_plume_and_filaments() {
-    let (poses, pitch, iou) = run_clutter_clip("small-clutter-plume", RangeArg::Auto);
+    let (poses, pitch, yaw, iou) = run_clutter_clip("small-clutter-plume", RangeArg::Auto);
     assert!(poses >= 19, "{poses} of 20 frames with a pose");
     assert!(iou >= 0.45, "median IoU of the blind mask {iou}");
-    assert!(pitch <= 0.75, "median pitch error {pitch} deg/km");
+    assert!(pitch <= 0.5, "median pitch error {pitch} deg/km");
+    assert!(yaw <= 4.0, "median chosen yaw error {yaw} deg/km");
 }
 
 /// The scene of `fixtures/small-clutter-plume` drawn at three other seeds (its physics drawn
@@ -146,12 +149,12 @@ fn median(frames: &[FrameErrors], error: fn(&FrameErrors) -> f64) -> f64 {
 /// nose's ramp held to the model's nose and a faint body's width profile summed over its own
 /// width where the sky beside it is cluttered, 0.33 and 3.8; since the grey-level fit takes the
 /// body as opaque over a sky it fits in bins along it, where the sky beside it is cluttered,
-/// 0.26 and 2.8; since it also starts at the velocity's tilt, 0.22 and 2.2), 0.27 and 4.5 on a
-/// clear sky (then 0.10 and 1.5; at 9b8cacd 0.10 and 1.1; at 9b6f9d8 0.11 and 0.94; now 0.10
-/// and 1.01).
+/// 0.26 and 2.8; since it also starts at the velocity's tilt, 0.22 and 2.2; since its tilt is
+/// drawn to the velocity's, 0.20 and 1.3), 0.27 and 4.5 on a clear sky (then 0.10 and 1.5; at
+/// 9b8cacd 0.10 and 1.1; at 9b6f9d8 0.11 and 0.94; now 0.10 and 0.97).
 #[test]
 fn a_faint_body_under_a_plume_keeps_its_attitude_over_three_seeds() {
-    for (clear, max_pitch, max_yaw) in [(false, 0.28, 2.6), (true, 0.15, 1.5)] {
+    for (clear, max_pitch, max_yaw) in [(false, 0.25, 1.6), (true, 0.15, 1.5)] {
         let (frames, with_truth) = faint_body_frames(clear);
         let (pitch, yaw) = (median(&frames, |f| f.pitch), median(&frames, |f| f.yaw));
         println!(

@@ -94,7 +94,7 @@ enum ConfigSpec {
         uncertainty: [f32; 10],
         /// The grey-level fit: whether it runs, then its tunables (pixels, roll starts,
         /// iterations, the rest in field order).
-        grey_fit: (bool, u16, u8, u8, u8, [f32; 10]),
+        grey_fit: (bool, u16, u8, u8, u8, [f32; 11]),
         /// Every tunable of the bar search, in its field order (None: no bar search).
         bar: Option<[f32; 18]>,
         /// Every tunable of the sky corridor, in its field order (None: the tiles' sky).
@@ -355,6 +355,7 @@ fn config(spec: &ConfigSpec) -> Config {
                 wide_body_sigmas: g.5[7],
                 plume_margin_sigmas: g.5[8],
                 sky_bin_diameters: g.5[9],
+                flight_tilt_sd_deg: g.5[10],
             },
             track: TrackConfig {
                 gate_px: t[0],

@@ -182,6 +182,9 @@ pub struct GreyFitConfig {
     /// The sky's bins along the window are about this many body diameters long (at most
     /// [`SKY_BINS`] of them).
     pub sky_bin_diameters: f32,
+    /// Where the sky is cluttered and the velocity's tilt is known, the fitted tilt is drawn
+    /// to it as to a measurement of this one-sigma, deg (the angle of attack's share).
+    pub flight_tilt_sd_deg: f32,
 }
 
 impl GreyFitConfig {
@@ -202,6 +205,7 @@ impl GreyFitConfig {
         wide_body_sigmas: 12.0,
         plume_margin_sigmas: 1.0,
         sky_bin_diameters: 1.0,
+        flight_tilt_sd_deg: 3.0,
     };
 }
 
@@ -545,6 +549,9 @@ struct GreyProblem<'a, const C: usize> {
     /// The detection's sky at the fit's first start's origin, grey levels: the body's radiance
     /// is fitted against it.
     sky_reference: f32,
+    /// The velocity's tilt out of the image plane, deg, and the weight of the fitted tilt's
+    /// squared difference from it, cost per deg² (none where the velocity is not known).
+    flight_tilt: Option<(f32, f32)>,
     config: &'a GreyFitConfig,
 }
 
@@ -660,6 +667,9 @@ impl<const C: usize> GreyProblem<'_, C> {
             );
             cost += self.huber(data - image - sky).0;
         });
+        if let Some((tilt, weight)) = self.flight_tilt {
+            cost += weight * (tilt - p[TILT]) * (tilt - p[TILT]);
+        }
         cost.is_finite().then_some(cost)
     }
 }
@@ -740,6 +750,20 @@ impl<const C: usize> Problem<PARAMS> for GreyProblem<'_, C> {
             let indices = (0..=SKY).chain([SKY + 1 + b0, SKY + 1 + b1]);
             crate::math::accumulate_at(&mut normal.jtj, &mut normal.jtr, &g, indices, weight, r);
         });
+        if let Some((tilt, weight)) = self.flight_tilt {
+            let r = tilt - p[TILT];
+            normal.cost += weight * r * r;
+            let mut g = Params::zeros();
+            g[TILT] = 1.0;
+            crate::math::accumulate_at(
+                &mut normal.jtj,
+                &mut normal.jtr,
+                &g,
+                core::iter::once(TILT),
+                weight,
+                r,
+            );
+        }
         Some(normal.complete())
     }
 
@@ -842,6 +866,13 @@ pub fn fit<const C: usize>(
         has_fins: model.fins().is_some(),
         huber: config.huber_sigmas * input.background.sigma().max(f32::MIN_POSITIVE),
         sky_reference,
+        flight_tilt: flight_tilt.map(|t| {
+            let noise = input.background.sigma();
+            (
+                t,
+                noise * noise / (config.flight_tilt_sd_deg * config.flight_tilt_sd_deg),
+            )
+        }),
         config,
     };
     // The parameters at the start of `view` and blur `sigma_px`: no shift, turn or scale, the
@@ -1440,5 +1471,58 @@ mod tests {
             without > 1.0,
             "without the velocity's tilt an end only {without} px off"
         );
+    }
+
+    /// A body near broadside (5 deg out of the image plane) whose ends, a fifth of its length
+    /// each, lie against clouds as bright as itself, so that its length, and the tilt with it,
+    /// hardly show: given the velocity's tilt, 7 deg (2 deg of angle of attack), the fitted tilt
+    /// is within 1.5 deg of it; the image alone leaves it more than 5 deg off the truth.
+    #[test]
+    fn the_velocitys_tilt_holds_a_body_whose_ends_do_not_show() {
+        let truth = FitStart {
+            view: View {
+                tilt_deg: 5.0,
+                ..truth().view
+            },
+            ..truth()
+        };
+        let (o, dir) = (truth.placement.origin, truth.placement.dir);
+        let model = reference();
+        let k = truth.placement.px_per_unit;
+        let cloud_from = 0.6 * base_distance_m(&model, 5.0) * k;
+        let sky = |x: f32, y: f32| {
+            let along = (x - o.x) * dir.x + (y - o.y) * dir.y;
+            1000.0 - 200.0 / (1.0 + libm::expf(-(libm::fabsf(along) - cloud_from) / 1.5))
+        };
+        let data = chip_on(&truth, sky, [0.0, 0.0, 1.0, 1.0], 20.0);
+        let chip = ChipView::gray16(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        let background = sky_of(&chip);
+        let camera = camera();
+        let start = FitStart {
+            view: View {
+                tilt_deg: 20.0,
+                ..truth.view
+            },
+            ..truth
+        };
+        let tilt = |flight_tilt_deg: Option<f32>| {
+            let input = FitInput {
+                chip: &chip,
+                background: &background,
+                origin: (0, 0),
+                range_m: Some(100_000.0 / k),
+                plume_at_tail: false,
+                cluttered_sky: true,
+                flight_tilt_deg,
+            };
+            let fitted = fit::<512>(&input, &start, &model, &camera, &GreyFitConfig::DEFAULT);
+            fitted.map_or(f32::NAN, |f| f.view.tilt_deg)
+        };
+        let (with, without) = (tilt(Some(7.0)), tilt(None));
+        assert!(
+            (with - 7.0).abs() < 1.5,
+            "tilt {with} deg with the velocity's 7"
+        );
+        assert!((without - 5.0).abs() > 5.0, "tilt {without} deg without it");
     }
 }
