@@ -103,7 +103,7 @@ enum ConfigSpec {
         world: [f64; 4],
         /// The terrain's tunables: its float ones and its px ones, each in field order (None:
         /// not looked for).
-        terrain: Option<([f32; 5], [u16; 3])>,
+        terrain: Option<([f32; 6], [u16; 3])>,
         max_predicted_scatter: f32,
     },
 }
@@ -279,6 +279,7 @@ fn config(spec: &ConfigSpec) -> Config {
                     edge_px: px[2],
                     min_sharp_fraction: f[3],
                     min_low_fraction: f[4],
+                    min_dark_contrast_sigma: f[5],
                 }),
             },
             silhouette: SilhouetteConfig {

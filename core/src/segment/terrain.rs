@@ -5,10 +5,11 @@
 //! itself then looks like sky, and only a strip along the ridge, where the tiles' interpolation
 //! lies between the two levels, stands out, shaped like a long, thin body clear of the chip's
 //! edge. [`Horizon::find`] finds the terrain instead: where the lower edge's tiles differ from
-//! the sky of the top row by more than [`TerrainConfig::min_contrast_sigma`] noise sigmas over
-//! at least [`TerrainConfig::min_width_fraction`] of the chip's width, each column is followed
-//! up from the lower edge while its pixels lie on the terrain's side of the level halfway
-//! between the two. The background then takes its sky from above the horizon only
+//! the sky of the top row by more than [`TerrainConfig::min_contrast_sigma`] noise sigmas (or
+//! are darker by [`TerrainConfig::min_dark_contrast_sigma`]) over at least
+//! [`TerrainConfig::min_width_fraction`] of the chip's width, each column is followed up from
+//! the lower edge while its pixels lie on the terrain's side of the level halfway between the
+//! two. The background then takes its sky from above the horizon only
 //! ([`Background::estimate_terrain`](super::background::Background::estimate_terrain)), so that
 //! the terrain stands out whole and reaches the chip's edge (a candidate there is never the
 //! body).
@@ -24,6 +25,11 @@ pub struct TerrainConfig {
     /// median of the top row's tiles) by at least this many noise sigmas: more than a faint
     /// body's contrast or a cloud's shading ...
     pub min_contrast_sigma: f32,
+    /// ... or, darker than the sky, by at least this many: by day the ground seen through the
+    /// haze is darker than the sky above the horizon, and hazy ridges 10-20 sigmas dark broke
+    /// into ridge fragments the size of a body, while a band this bright at the lower edge is
+    /// more often a sunlit cloud ...
+    pub min_dark_contrast_sigma: f32,
     /// ... and where such tiles, all on one side of the sky, cover at least this fraction of
     /// the chip's width (a plume or a body at the edge covers less).
     pub min_width_fraction: f32,
@@ -51,6 +57,7 @@ impl TerrainConfig {
     /// The defaults.
     pub const DEFAULT: TerrainConfig = TerrainConfig {
         min_contrast_sigma: 20.0,
+        min_dark_contrast_sigma: 10.0,
         min_width_fraction: 0.25,
         gap_px: 3,
         margin_px: 2,
@@ -176,8 +183,8 @@ impl Horizon {
 }
 
 /// The terrain's level: the mean of the lower edge's tile levels that differ from `sky` by at
-/// least the config's contrast, all on the side of the one that differs most, where they cover
-/// at least the config's fraction of the chip's `width` px (None: no terrain).
+/// least the config's contrast (of their side), all on the side of the one that differs most,
+/// where they cover at least the config's fraction of the chip's `width` px (None: no terrain).
 fn terrain_level(
     sky: f32,
     sigma: f32,
@@ -186,12 +193,15 @@ fn terrain_level(
     width: usize,
     config: &TerrainConfig,
 ) -> Option<f32> {
-    let min_contrast = config.min_contrast_sigma * sigma;
     let farthest = bottom_levels
         .iter()
         .copied()
         .max_by(|a, b| libm::fabsf(a - sky).total_cmp(&libm::fabsf(b - sky)))?;
-    let side = if farthest > sky { 1.0 } else { -1.0 };
+    let (side, min_contrast) = if farthest > sky {
+        (1.0, config.min_contrast_sigma * sigma)
+    } else {
+        (-1.0, config.min_dark_contrast_sigma * sigma)
+    };
     let (sum, count) = bottom_levels
         .iter()
         .filter(|l| side * (**l - sky) >= min_contrast)
@@ -256,8 +266,8 @@ mod tests {
         let config = TerrainConfig::DEFAULT;
         assert!(!horizon.find(&chip, 150.0, 2.0, (&bottom_levels(&pixels), 32), &config));
         assert_eq!(horizon.top(10), None);
-        // A cloud's shade 15 sigmas darker, or terrain under only a tenth of the width, is not.
-        let shaded = [120.0, 150.0];
+        // A cloud's shade 8 sigmas darker, or terrain under only a tenth of the width, is not.
+        let shaded = [134.0, 150.0];
         assert!(!horizon.find(&chip, 150.0, 2.0, (&shaded, 32), &config));
         let narrow = [60.0, 150.0];
         let config = TerrainConfig {
@@ -300,5 +310,31 @@ mod tests {
             ..config
         };
         assert!(horizon.find(&chip, 150.0, 2.0, (&levels, 32), &anywhere));
+    }
+
+    /// A hazy ridge only 13-17 noise sigmas darker than the sky (its texture) is terrain; the
+    /// same band as much brighter, more often a sunlit cloud, is not.
+    #[test]
+    fn a_hazy_ridge_is_terrain_where_darker_than_the_sky() {
+        let ridge = |x: usize| 34 + (x % 8).min(8 - x % 8);
+        let hazy = |toward: i32| {
+            let mut pixels = chip_with_ridge(ridge);
+            for (i, p) in pixels.iter_mut().enumerate() {
+                let (x, y) = (i % SIDE, i / SIDE);
+                if y >= ridge(x) {
+                    *p = (150 + toward * (34 - ((x * 7 + y * 13) % 8) as i32)) as u8;
+                }
+            }
+            pixels
+        };
+        let config = TerrainConfig::DEFAULT;
+        let mut horizon = Horizon::new();
+        let dark = hazy(-1);
+        let chip = ChipView::gray8(&dark, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        assert!(horizon.find(&chip, 150.0, 2.0, (&bottom_levels(&dark), 32), &config));
+        assert_eq!(horizon.top(5), Some(ridge(5)));
+        let bright = hazy(1);
+        let chip = ChipView::gray8(&bright, SIDE, SIDE, SIDE, 0, 0).unwrap();
+        assert!(!horizon.find(&chip, 150.0, 2.0, (&bottom_levels(&bright), 32), &config));
     }
 }
