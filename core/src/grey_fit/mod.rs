@@ -1272,6 +1272,29 @@ mod tests {
         }
     }
 
+    /// The reference fitted from `start` to `chip` (sky `background`) with the range known at
+    /// the scale `px_per_m`, where the sky is cluttered and the velocity's tilt is
+    /// `flight_tilt_deg`.
+    fn fit_in_clutter(
+        chip: &ChipView,
+        background: &Background,
+        start: &FitStart,
+        px_per_m: f32,
+        flight_tilt_deg: Option<f32>,
+    ) -> Result<GreyFitted, GreyFitError> {
+        let input = FitInput {
+            chip,
+            background,
+            origin: (0, 0),
+            range_m: Some(100_000.0 / px_per_m),
+            plume_at_tail: false,
+            cluttered_sky: true,
+            flight_tilt_deg,
+        };
+        let config = GreyFitConfig::DEFAULT;
+        fit::<512>(&input, start, &reference(), &camera(), &config)
+    }
+
     /// From a start 0.6 px off, 4 % off in scale, 5 deg off in tilt and roll and 0.2 px off
     /// in blur, the fit finds the image it was drawn from (the fit's own model: a check of the
     /// solver and the derivatives, not of the physics).
@@ -1423,7 +1446,7 @@ mod tests {
         let data = chip_on(&truth, sky, [0.0, 0.0, 1.0, 1.0], 4.0);
         let chip = ChipView::gray16(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
         let background = sky_of(&chip);
-        let (model, camera) = (reference(), camera());
+        let model = reference();
         let k = truth.placement.px_per_unit;
         let tail_at = |tilt_deg: f32| {
             let view = View {
@@ -1447,16 +1470,7 @@ mod tests {
         let half = base_distance_m(&model, 25.0) * k;
         let ends = [o + dir * half, o - dir * half];
         let worst_miss = |flight_tilt_deg: Option<f32>| {
-            let input = FitInput {
-                chip: &chip,
-                background: &background,
-                origin: (0, 0),
-                range_m: Some(100_000.0 / k),
-                plume_at_tail: false,
-                cluttered_sky: true,
-                flight_tilt_deg,
-            };
-            let fitted = fit::<512>(&input, &start, &model, &camera, &GreyFitConfig::DEFAULT);
+            let fitted = fit_in_clutter(&chip, &background, &start, k, flight_tilt_deg);
             fitted.map_or(f32::INFINITY, |f| {
                 f.ends
                     .iter()
@@ -1497,7 +1511,6 @@ mod tests {
         let data = chip_on(&truth, sky, [0.0, 0.0, 1.0, 1.0], 20.0);
         let chip = ChipView::gray16(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
         let background = sky_of(&chip);
-        let camera = camera();
         let start = FitStart {
             view: View {
                 tilt_deg: 20.0,
@@ -1506,16 +1519,7 @@ mod tests {
             ..truth
         };
         let tilt = |flight_tilt_deg: Option<f32>| {
-            let input = FitInput {
-                chip: &chip,
-                background: &background,
-                origin: (0, 0),
-                range_m: Some(100_000.0 / k),
-                plume_at_tail: false,
-                cluttered_sky: true,
-                flight_tilt_deg,
-            };
-            let fitted = fit::<512>(&input, &start, &model, &camera, &GreyFitConfig::DEFAULT);
+            let fitted = fit_in_clutter(&chip, &background, &start, k, flight_tilt_deg);
             fitted.map_or(f32::NAN, |f| f.view.tilt_deg)
         };
         let (with, without) = (tilt(Some(7.0)), tilt(None));
