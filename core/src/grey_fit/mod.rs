@@ -647,6 +647,13 @@ impl<const C: usize> GreyProblem<'_, C> {
         appearance::contrast(shading, b) + glow.map_or(0.0, |g| Self::glow_peaks(p) * g.shape)
     }
 
+    /// The velocity's tilt less the fitted tilt at `p`, deg, and its weight, cost per deg²
+    /// (None where the velocity is not known).
+    fn flight_residual(&self, p: &Params) -> Option<(f32, f32)> {
+        self.flight_tilt
+            .map(|(tilt, weight)| (tilt - p[TILT], weight))
+    }
+
     /// The cost alone at `p` (no derivatives: one rendering of the window).
     fn cost(&self, p: &Params) -> Option<f32> {
         let outline = self.outline(p[TILT], p[ROLL])?;
@@ -667,8 +674,8 @@ impl<const C: usize> GreyProblem<'_, C> {
             );
             cost += self.huber(data - image - sky).0;
         });
-        if let Some((tilt, weight)) = self.flight_tilt {
-            cost += weight * (tilt - p[TILT]) * (tilt - p[TILT]);
+        if let Some((r, weight)) = self.flight_residual(p) {
+            cost += weight * r * r;
         }
         cost.is_finite().then_some(cost)
     }
@@ -750,8 +757,7 @@ impl<const C: usize> Problem<PARAMS> for GreyProblem<'_, C> {
             let indices = (0..=SKY).chain([SKY + 1 + b0, SKY + 1 + b1]);
             crate::math::accumulate_at(&mut normal.jtj, &mut normal.jtr, &g, indices, weight, r);
         });
-        if let Some((tilt, weight)) = self.flight_tilt {
-            let r = tilt - p[TILT];
+        if let Some((r, weight)) = self.flight_residual(p) {
             normal.cost += weight * r * r;
             let mut g = Params::zeros();
             g[TILT] = 1.0;
