@@ -34,10 +34,14 @@
 //! mount's pointing and a range sensor), the fit also starts at the velocity's tilt (a projectile
 //! flies within a few degrees of its velocity), the silhouette's tail end held where a plume
 //! marks it, else either end; of the starts, the one of least cost after
-//! [`GreyFitConfig::probe_iterations`] in one window over all goes on. The velocity only
-//! chooses where the fit starts: the pose is the image's. Over 780 frames of 21 simulated
-//! clutter clips the median pitch error went 0.88 -> 0.68 deg/km and the chosen yaw's 8.8 ->
-//! 7.1, the upper quartile of the pitch's 6.2 -> 4.4 (`docs/benchmarks.md`).
+//! [`GreyFitConfig::probe_iterations`] in one window over all goes on. Over 780 frames of 21
+//! simulated clutter clips the median pitch error went 0.88 -> 0.68 deg/km and the chosen yaw's
+//! 8.8 -> 7.1, the upper quartile of the pitch's 6.2 -> 4.4 (`docs/benchmarks.md`). There the
+//! fitted tilt is also drawn to the velocity's, as to a measurement of one sigma
+//! [`GreyFitConfig::flight_tilt_sd_deg`]: near broadside the image shows the tilt only in the
+//! length (`L cos tilt`, a pixel of a 130-px body is 8 deg at 5 deg), so where the image does
+//! not tell the tilt the velocity does (555 clutter frames: pitch 0.59 -> 0.40, chosen yaw
+//! 6.4 -> 3.8 deg/km); where it does, the image wins.
 //!
 //! On 13 simulated clutter clips (faint bodies among clouds, filaments and terrain, with plumes),
 //! against the earlier fit (a constant contrast over the detection's sky and a plane), the
@@ -918,29 +922,27 @@ pub fn fit<const C: usize>(
             };
             let (tail, nose) = ends_at(view.tilt_deg);
             let (flight_tail, flight_nose) = ends_at(flight_tilt);
-            // At the velocity's tilt with the start's tail (-1) or nose (+1) held: its origin
-            // along the start's axis, px.
-            let shift = |held: f32| {
-                if held < 0.0 {
-                    tail - flight_tail
-                } else {
-                    nose - flight_nose
-                }
-            };
-            let mut starts: heapless::Vec<(f32, f32), 3> = heapless::Vec::new();
-            starts.extend([(view.tilt_deg, 0.0), (flight_tilt, shift(-1.0))]);
+            // The starts: the match's, and at the velocity's tilt with the start's tail held
+            // (its origin moved along the start's axis by `shift`, px), and with its nose held.
+            let at_flight = |shift: f32| (flight_tilt, shift, (flight_tail, flight_nose));
+            let mut starts: heapless::Vec<(f32, f32, (f32, f32)), 3> = heapless::Vec::new();
+            starts.extend([
+                (view.tilt_deg, 0.0, (tail, nose)),
+                at_flight(tail - flight_tail),
+            ]);
             if !input.plume_at_tail {
-                starts.extend([(flight_tilt, shift(1.0))]);
+                starts.extend([at_flight(nose - flight_nose)]);
             }
             let behind = if input.plume_at_tail {
                 config.plume_margin_sigmas * sigma
             } else {
                 margin
             };
-            let (first_t, last_t) = starts.iter().fold((tail, nose), |(a, b), (tilt, shift)| {
-                let (t, n) = ends_at(*tilt);
-                (a.min(t + shift), b.max(n + shift))
-            });
+            let (first_t, last_t) = starts
+                .iter()
+                .fold((tail, nose), |(a, b), (_, shift, (t, n))| {
+                    (a.min(t + shift), b.max(n + shift))
+                });
             let all = window(start, (first_t - behind, last_t + margin));
             let at = |shift: f32| Frame {
                 axis: Axis {
@@ -951,7 +953,7 @@ pub fn fit<const C: usize>(
             };
             starts
                 .iter()
-                .filter_map(|(tilt, shift)| {
+                .filter_map(|(tilt, shift, _)| {
                     let problem = problem_at(at(*shift), all);
                     let from_tilt = start_params(
                         &View {
