@@ -598,12 +598,9 @@ mod tests {
         assert!((WorldPose::of(&below, &mount, &station).origin_enu_m[2] - 25.0).abs() < 1e-4);
     }
 
-    /// A level camera looking east (its +x south, +y down), by hand: flying north, the body
-    /// moves left across the image; climbing, up; north-east at 45 deg to the line of sight,
-    /// still left; 20 deg off the line of sight (sin 0.34 < 0.5) or along it, no direction. Off
-    /// the image centre, a velocity along the line of sight through that pixel has none either.
-    #[test]
-    fn the_flight_across_the_image_by_hand() {
+    /// A level camera looking east (its +x south, +y down), 1000 px focal length, and its
+    /// principal point (500, 400).
+    fn level_camera_east() -> (Mount, Camera, ImagePoint) {
         let mount = Mount::new_checked(90.0, 0.0).unwrap();
         let camera = Camera {
             fx: 1000.0,
@@ -611,7 +608,16 @@ mod tests {
             cx: 500.0,
             cy: 400.0,
         };
-        let centre = ImagePoint::new(500.0, 400.0);
+        (mount, camera, ImagePoint::new(500.0, 400.0))
+    }
+
+    /// [`level_camera_east`], by hand: flying north, the body moves left across the image;
+    /// climbing, up; north-east at 45 deg to the line of sight, still left; 20 deg off the line
+    /// of sight (sin 0.34 < 0.5) or along it, no direction. Off the image centre, a velocity
+    /// along the line of sight through that pixel has none either.
+    #[test]
+    fn the_flight_across_the_image_by_hand() {
+        let (mount, camera, centre) = level_camera_east();
         let flight =
             |v: [f64; 3], at: ImagePoint| Flight::new(&v, &mount, &camera, at).in_chip(0.5);
         let close = |got: Option<ImagePoint>, want: (f32, f32)| {
@@ -637,14 +643,7 @@ mod tests {
     /// (600, 400) (90 there).
     #[test]
     fn the_flight_tilt_by_hand() {
-        let mount = Mount::new_checked(90.0, 0.0).unwrap();
-        let camera = Camera {
-            fx: 1000.0,
-            fy: 1000.0,
-            cx: 500.0,
-            cy: 400.0,
-        };
-        let centre = ImagePoint::new(500.0, 400.0);
+        let (mount, camera, centre) = level_camera_east();
         let tilt = |v: [f64; 3], at: ImagePoint| Flight::new(&v, &mount, &camera, at).tilt_deg();
         let close = |got: Option<f32>, want: f32| got.is_some_and(|t| (t - want).abs() < 1e-3);
         assert!(close(tilt([0.0, 250.0, 0.0], centre), 0.0));

@@ -1420,19 +1420,9 @@ mod tests {
         let chip = ChipView::gray16(&data, SIDE, SIDE, SIDE, 0, 0).unwrap();
         let background = sky_of(&chip);
         let start = start_off(&truth, 1.0);
-        let camera = camera();
-        let input = FitInput {
-            chip: &chip,
-            background: &background,
-            origin: (0, 0),
-            range_m: Some(100_000.0 / truth.placement.px_per_unit),
-            plume_at_tail: false,
-            cluttered_sky: true,
-            flight_tilt_deg: None,
-        };
-        let model = reference();
-        let fitted = fit::<512>(&input, &start, &model, &camera, &GreyFitConfig::DEFAULT).unwrap();
-        let half = base_distance_m(&model, 25.0) * truth.placement.px_per_unit;
+        let k = truth.placement.px_per_unit;
+        let fitted = fit_in_clutter(&chip, &background, &start, k, None).unwrap();
+        let half = base_distance_m(&reference(), 25.0) * k;
         for (fitted_end, end) in fitted.ends.iter().zip([o + dir * half, o - dir * half]) {
             let miss = (*fitted_end - end).norm();
             assert!(miss < 0.2, "an end {miss} px off: {fitted:?}");
