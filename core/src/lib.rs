@@ -32,6 +32,7 @@ pub mod chip;
 pub mod closed_form;
 pub mod config;
 pub mod extremes;
+pub mod flight_filter;
 pub mod frame;
 pub mod grey_fit;
 pub mod lut;

@@ -18,6 +18,7 @@ use crate::chip::ChipView;
 use crate::closed_form::Hypothesis;
 use crate::config::{Config, RangeUse};
 use crate::extremes::{self, Silhouette};
+use crate::flight_filter::{FlightStep, Sight};
 use crate::frame::{FrameError, FrameInput, FrameResult, Status};
 use crate::grey_fit::{self, FitInput, FitStart};
 use crate::lut::table::Table;
@@ -84,6 +85,7 @@ pub struct Pipeline<
     station: Station,
     solved: Option<Solved>,
     range_step: Option<FilterStep>,
+    flight_step: Option<FlightStep>,
 }
 
 impl<
@@ -107,6 +109,7 @@ impl<
             station: Station { enu_m: [0.0; 3] },
             solved: None,
             range_step: None,
+            flight_step: None,
         }
     }
 
@@ -171,6 +174,12 @@ impl<
         self.solved.as_ref()
     }
 
+    /// The flight filter's step at the last frame, where it took that frame: the steps of a
+    /// recorded clip, in order, are what [`crate::flight_filter::smooth`] smooths.
+    pub fn last_flight_step(&self) -> Option<FlightStep> {
+        self.flight_step
+    }
+
     /// The range filter's step at the last frame, where the filter took a range there (the
     /// sensor's or the image's), with a pose or without: the steps of a recorded clip, in order,
     /// are what [`crate::range_filter::smooth`] smooths.
@@ -205,6 +214,7 @@ impl<
         self.table_match.clear();
         self.solved = None;
         self.range_step = None;
+        self.flight_step = None;
         let input = match self.check(input) {
             Ok(input) => input,
             Err(e) => return FrameResult::from_error(e),
@@ -221,6 +231,7 @@ impl<
                 diameter_px: m.hypothesis.silhouette.diameter_px,
                 blur_px: m.hypothesis.silhouette.sigma_px,
             },
+            sight: input.mount.and_then(|mount| self.sight(m, &mount)),
         });
         let estimate = self.temporal.update(
             &prediction,
@@ -229,6 +240,7 @@ impl<
             &self.config.temporal,
         );
         self.range_step = self.temporal.range_step(prediction.t);
+        self.flight_step = self.temporal.flight_step(prediction.t);
         let (target, measurement, estimate) = match (measured, estimate) {
             (Ok((target, m)), Some(estimate)) => (target, m, estimate),
             (Err(e), _) => return FrameResult::from_error(e),
@@ -424,6 +436,27 @@ impl<
             chip.y0() as f32 + 0.5 * chip.height() as f32,
         );
         Some(Flight::new(&velocity, &mount, &self.camera, middle))
+    }
+
+    /// The line of sight to the body origin of `measured` in the world frame, the camera
+    /// pointed as `mount`: the origin's direction, which the range does not change (it is
+    /// solved at the image range), with the sight's sigma of
+    /// [`crate::flight_filter::FlightFilterConfig::sight_sd_px`].
+    fn sight(&self, measured: &Measurement, mount: &Mount) -> Option<Sight> {
+        let range_m = measured.image_range_m()?;
+        let [x, y, z] = measured
+            .at_range(&self.camera, &self.model, range_m)
+            .translation;
+        let dir = mount.rotation_camera_to_world()
+            * nalgebra::Vector3::new(f64::from(x), f64::from(y), f64::from(z));
+        let dir = dir.try_normalize(0.0)?;
+        let focal = f64::from(self.camera.fx.min(self.camera.fy));
+        let sd_rad = f64::from(self.config.temporal.flight.sight_sd_px) / focal;
+        Some(Sight {
+            station_enu_m: self.station.enu_m,
+            dir_enu: [dir.x, dir.y, dir.z],
+            sd_rad,
+        })
     }
 
     /// The body's size in the chip at `range_m` m (None for a range that gives no finite size).

@@ -16,6 +16,7 @@
 //! ([`crate::range_filter::smooth`]).
 
 use crate::capacity::MAX_WINDOW;
+use crate::flight_filter::{FlightFilter, FlightFilterConfig, FlightStep, RangeReading, Sight};
 use crate::point::ImagePoint;
 use crate::range_filter::{FilterStep, ImageScale, RangeFilter, RangeFilterConfig};
 
@@ -40,6 +41,11 @@ pub struct TemporalConfig {
     /// The motion model's tunables: its filter smooths the image range
     /// ([`RangeSmoothing::MotionModel`]) and takes a range sensor's readings in either mode.
     pub range_filter: RangeFilterConfig,
+    /// The flight's motion model ([`crate::flight_filter`]): where a frame without a range
+    /// sensor comes with its line of sight in the world frame, its range is the flight
+    /// filter's (gravity's bend of the path across the lines of sight scales it), and the
+    /// filter's range rate chooses the yaw side.
+    pub flight: FlightFilterConfig,
     /// Weight `r` of the source paper's Eq. 5 Tz smoothing, in (0, 1], for frames
     /// `tz_smoothing_interval_s` apart; 1 disables smoothing.
     pub tz_smoothing_r: f32,
@@ -78,6 +84,7 @@ impl TemporalConfig {
     pub const DEFAULT: TemporalConfig = TemporalConfig {
         range_smoothing: RangeSmoothing::MotionModel,
         range_filter: RangeFilterConfig::DEFAULT,
+        flight: FlightFilterConfig::DEFAULT,
         tz_smoothing_r: 0.1,
         tz_smoothing_interval_s: 1.0 / 30.0,
         window_frames: 15,
@@ -115,6 +122,9 @@ pub struct Observation {
     pub nose_dir: ImagePoint,
     /// The scale the image range was read at.
     pub scale: ImageScale,
+    /// The line of sight to the body origin in the world frame, where the frame came with the
+    /// mount's pointing.
+    pub sight: Option<Sight>,
 }
 
 /// The temporal stage's estimate for a frame with a pose.
@@ -190,6 +200,7 @@ pub struct Temporal {
     last_t: f32,
     smoothed: Option<Sample>,
     filter: RangeFilter,
+    flight: FlightFilter,
     last_away: Option<bool>,
     nose_dir: Option<ImagePoint>,
 }
@@ -209,6 +220,7 @@ impl Temporal {
             last_t: 0.0,
             smoothed: None,
             filter: RangeFilter::new(),
+            flight: FlightFilter::new(),
             last_away: None,
             nose_dir: None,
         }
@@ -218,6 +230,14 @@ impl Temporal {
     /// that frame's range.
     pub fn range_step(&self, t: f32) -> Option<FilterStep> {
         self.filter.last_step().filter(|step| step.time_s() == t)
+    }
+
+    /// The flight filter's step at the frame of time `t` (s, [`Prediction::t`]), where it took
+    /// that frame.
+    pub fn flight_step(&self, t: f32) -> Option<FlightStep> {
+        self.flight
+            .last_step()
+            .filter(|step| step.time_s() == f64::from(t))
     }
 
     /// Forgets everything.
@@ -273,6 +293,7 @@ impl Temporal {
                     .update(t, r, self.noise(), &ImageScale::SHARP, &config.range_filter);
         }
         let observation = observation?;
+        let mut flight_rate = None;
         let (range_m, range_sd_m) = match (sensor_range_m, observation.image_range_m) {
             (Some(r), _) => (r, None),
             (None, Some(r)) => match config.range_smoothing {
@@ -283,23 +304,55 @@ impl Temporal {
                 }
                 RangeSmoothing::MotionModel => {
                     self.push_range(t, r, config);
+                    let noise = self.noise();
                     let filtered = self.filter.update(
                         t,
                         r,
-                        self.noise(),
+                        noise,
                         &observation.scale,
                         &config.range_filter,
                     )?;
-                    (filtered.range_m, Some(filtered.sd_m))
+                    let sd = noise.unwrap_or(config.range_filter.initial_noise_fraction * r);
+                    let reading = RangeReading {
+                        range_m: f64::from(r),
+                        sd_m: f64::from(sd),
+                    };
+                    let flown = observation
+                        .sight
+                        .filter(|_| config.flight.enabled)
+                        .and_then(|sight| {
+                            self.flight
+                                .update(f64::from(t), &sight, reading, &config.flight)
+                        });
+                    match flown {
+                        Some(flown) => {
+                            flight_rate = Some(flown.rate_m_s);
+                            (flown.range.range_m as f32, Some(flown.range.sd_m as f32))
+                        }
+                        None => (filtered.range_m, Some(filtered.sd_m)),
+                    }
                 }
             },
             (None, None) => return None,
         };
         self.nose_dir = Some(observation.nose_dir);
+        let choice = match flight_rate {
+            // The flight's rate: the lines of sight and gravity tell it, not the image ranges.
+            Some((rate, sd)) => {
+                let fallback = self.last_away.unwrap_or(true);
+                let choice =
+                    YawChoice::of_rate(rate as f32, sd as f32, config.trend_sigma, fallback);
+                if choice.resolved {
+                    self.last_away = Some(choice.away);
+                }
+                choice
+            }
+            None => self.choose_yaw(t, config),
+        };
         Some(Estimate {
             range_m,
             range_sd_m,
-            choice: self.choose_yaw(t, config),
+            choice,
         })
     }
 

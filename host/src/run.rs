@@ -362,6 +362,7 @@ pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<Cli
                     recorded.push(Recorded {
                         row: rows.len(),
                         step: pipeline.last_range_step(),
+                        flight: pipeline.last_flight_step(),
                         solved: pipeline.last_solved().copied(),
                         position: result.world.map(|world| Position {
                             time_s: row.time_s,

@@ -7,8 +7,12 @@
 //! frame whose range came from the image is solved again at its smoothed range, with the
 //! smoothed sigma and the yaw side that the smoothed range rate decides. Where a sensor gave the
 //! range, the range stands as given and only the yaw side is decided again, from the smoothed
-//! rate of the sensor's ranges.
+//! rate of the sensor's ranges. Where the frames came with the mount's pointing, the flight
+//! filter's steps ([`flight_filter`]) are smoothed alike, and a frame whose range came from the
+//! image takes the smoothed flight's range, sigma and range rate instead: the lines of sight
+//! after it fix its range better than anything before it could.
 
+use imade_core::flight_filter::{self, FlightStep};
 use imade_core::pipeline::Solved;
 use imade_core::range_filter::{self, FilterStep};
 use imade_core::temporal::{Estimate, YawChoice};
@@ -23,6 +27,8 @@ pub struct Recorded {
     pub row: usize,
     /// The range filter's step ([`Pipeline::last_range_step`]).
     pub step: Option<FilterStep>,
+    /// The flight filter's step ([`Pipeline::last_flight_step`]).
+    pub flight: Option<FlightStep>,
     /// What the pipeline solved the frame's pose from ([`Pipeline::last_solved`]).
     pub solved: Option<Solved>,
     /// The body origin in the world frame, where the frame has a pose and the mount's pointing.
@@ -37,15 +43,33 @@ pub fn smoothed_results(pipeline: &Pipeline, recorded: &[Recorded]) -> Vec<(usiz
     let stepped: Vec<&Recorded> = recorded.iter().filter(|r| r.step.is_some()).collect();
     let mut steps: Vec<FilterStep> = stepped.iter().filter_map(|r| r.step).collect();
     range_filter::smooth(&mut steps);
+    let mut flights: Vec<FlightStep> = stepped.iter().filter_map(|r| r.flight).collect();
+    flight_filter::smooth(&mut flights);
+    // Each stepped frame's place among the flight steps, where it has one.
+    let mut next_flight = 0;
+    let flight_index: Vec<Option<usize>> = stepped
+        .iter()
+        .map(|r| {
+            r.flight.map(|_| {
+                next_flight += 1;
+                next_flight - 1
+            })
+        })
+        .collect();
     let sigmas = pipeline.config().temporal.trend_sigma;
     let positions: Vec<Position> = recorded.iter().filter_map(|r| r.position).collect();
     let world_config = &pipeline.config().world;
     stepped
         .iter()
         .zip(&steps)
-        .filter_map(|(r, step)| Some((r, r.solved.as_ref()?, step)))
-        .map(|(r, solved, step)| {
-            let (rate, rate_sd) = step.rate();
+        .zip(&flight_index)
+        .filter_map(|((r, step), flight)| Some((r, r.solved.as_ref()?, step, *flight)))
+        .map(|(r, solved, step, flight)| {
+            let flight = flight
+                .and_then(|i| flights.get(i))
+                .map(FlightStep::estimate);
+            let (rate, rate_sd) =
+                flight.map_or(step.rate(), |f| (f.rate_m_s.0 as f32, f.rate_m_s.1 as f32));
             let choice = YawChoice::of_rate(rate, rate_sd, sigmas, solved.estimate.choice.away);
             let estimate = if solved.measurement.hypothesis.sensor_range_m.is_some() {
                 // The sensor's range stands as given; only the side is decided again.
@@ -54,10 +78,16 @@ pub fn smoothed_results(pipeline: &Pipeline, recorded: &[Recorded]) -> Vec<(usiz
                     ..solved.estimate
                 }
             } else {
-                let range = step.range();
+                let (range_m, sd_m) = flight.map_or_else(
+                    || {
+                        let range = step.range();
+                        (range.range_m, range.sd_m)
+                    },
+                    |f| (f.range.range_m as f32, f.range.sd_m as f32),
+                );
                 Estimate {
-                    range_m: range.range_m,
-                    range_sd_m: Some(range.sd_m),
+                    range_m,
+                    range_sd_m: Some(sd_m),
                     choice,
                 }
             };
