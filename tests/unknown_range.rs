@@ -47,25 +47,34 @@ fn the_motion_model_gives_the_depth_with_honest_sigmas() {
     }
 }
 
-/// A clip flying away from 1.1 to 2.2 km, its body thinning to about 4 px: the image range's
-/// error grows with the blur over the diameter, and so must the sigma.
+/// Two clips with the mount's pointing and no range: one flying away from 1.1 to 2.2 km, its
+/// body thinning to about 4 px under a plume that hides its base, and one coming at the camera
+/// from 3.0 to 2.1 km, its body 4-6 px wide. Their image ranges scatter by 20-140 and 20-90 m/km;
+/// the flight filter scales the path by gravity's bend across the lines of sight (before it, the
+/// range filter of the image ranges alone: 14.8 and 24.9 m/km), and its sigma covers the error.
 #[test]
-fn the_sigma_grows_with_a_thinning_body() {
-    let (tz, within, poses, frames) = tz_without_range("small-unknown-range");
-    eprintln!(
-        "small-unknown-range: Tz {tz:.2} m/km, {:.0} % within 2 sigma",
-        100.0 * within
-    );
-    assert_eq!(poses, frames);
-    assert!(tz <= 16.0, "Tz {tz} m/km (Eq. 5: 16.1)");
-    assert!(within >= 0.8, "{within} of frames within two sigmas");
+fn gravity_scales_a_flight_the_image_ranges_cannot() {
+    for (clip, max_tz) in [("small-unknown-range", 5.0), ("small-towards-camera", 9.0)] {
+        let (tz, within, poses, frames) = tz_without_range(clip);
+        eprintln!(
+            "{clip}: Tz {tz:.2} m/km, {:.0} % within 2 sigma",
+            100.0 * within
+        );
+        assert_eq!(poses, frames, "{clip}");
+        assert!(tz <= max_tz, "{clip}: Tz {tz} m/km");
+        assert!(
+            within >= 0.8,
+            "{clip}: {within} of frames within two sigmas"
+        );
+    }
 }
 
 /// A recorded clip smoothed forwards and backwards (`imade run --smooth`): the depth closer than
-/// the causal filter's (causal: 3.81, 1.63 and 24.9 m/km), and the yaw side decided from the
-/// smoothed range rate, with or without the range sensor, right in at least 95 % of the frames
-/// (causal: 93 % on table1-test, 80 % on small-known-range and small-towards-camera without the
-/// range). The towards-the-camera clip's body is 4-6 px wide at 3.0-2.1 km.
+/// the causal filters' (causal: table1-test 3.81 m/km, small-known-range 1.25, small-unknown-range
+/// 3.49, small-towards-camera 7.45), and the yaw side decided from the smoothed range rate, with
+/// or without the range sensor, right in at least 95 % of the frames (causal: 93 % on
+/// table1-test, 90 % on small-towards-camera without the range). The towards-the-camera clip's
+/// body is 4-6 px wide at 3.0-2.1 km.
 #[test]
 fn smoothing_a_recorded_clip_gives_the_depth_and_the_side() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
@@ -73,7 +82,8 @@ fn smoothing_a_recorded_clip_gives_the_depth_and_the_side() {
         ("table1-test", RangeArg::Ignore, Some(3.0)),
         ("small-known-range", RangeArg::Ignore, Some(1.0)),
         ("small-known-range", RangeArg::Auto, None),
-        ("small-towards-camera", RangeArg::Ignore, Some(10.0)),
+        ("small-unknown-range", RangeArg::Ignore, Some(2.5)),
+        ("small-towards-camera", RangeArg::Ignore, Some(2.5)),
         ("small-towards-camera", RangeArg::Auto, None),
     ] {
         let out = root.join(format!("target/tmp/smoothed-{clip}-{}", range.name()));

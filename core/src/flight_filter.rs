@@ -40,6 +40,9 @@ const V: usize = 3;
 /// Index of the along-track acceleration in the state.
 const A: usize = 6;
 
+/// The most linearizations of a frame's correction.
+pub const MAX_ITERATIONS: u32 = 8;
+
 /// The flight filter's tunables.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -60,14 +63,22 @@ pub struct FlightFilterConfig {
     /// One sigma of the velocity at the second frame beyond what the two positions give, m/s
     /// (each axis).
     pub initial_velocity_sd_m_s: f32,
-    /// One sigma of the along-track acceleration at the second frame, m/s².
+    /// One sigma of the along-track acceleration at the second frame, m/s², about zero: a
+    /// coasting projectile's drag is a few m/s² (a motor's thrust is more, and the frames then
+    /// move it there, the first of them with their range still the image's). 20 instead of 5
+    /// took small-towards-camera's causal Tz from 7.45 to 10.7 m/km.
     pub initial_along_sd_m_s2: f32,
     /// An image range further than this many sigmas from the prediction counts with the
     /// weight that puts it at this distance (Huber).
     pub huber_sigmas: f32,
+    /// A sight further than this many sigmas from the prediction (both angles, Mahalanobis) is
+    /// not this flight's (a detection that took something else): the frame is left out ...
+    pub sight_gate_sigmas: f32,
+    /// ... and after this many such frames in a row the filter starts afresh from the last.
+    pub max_misses: u32,
     /// The longest integration step, s.
     pub max_step_s: f32,
-    /// Linearizations of each frame's correction.
+    /// Linearizations of each frame's correction (1 to [`MAX_ITERATIONS`]).
     pub iterations: u32,
 }
 
@@ -81,8 +92,10 @@ impl FlightFilterConfig {
         sight_sd_px: 1.0,
         min_range_fraction: 0.02,
         initial_velocity_sd_m_s: 2.0,
-        initial_along_sd_m_s2: 20.0,
+        initial_along_sd_m_s2: 5.0,
         huber_sigmas: 3.0,
+        sight_gate_sigmas: 6.0,
+        max_misses: 3,
         max_step_s: 0.05,
         iterations: 3,
     };
@@ -198,6 +211,8 @@ impl FlightStep {
 pub struct FlightFilter {
     first: Option<First>,
     last: Option<FlightStep>,
+    /// Frames left out in a row since the last taken ([`FlightFilterConfig::sight_gate_sigmas`]).
+    misses: u32,
 }
 
 impl FlightFilter {
@@ -206,6 +221,7 @@ impl FlightFilter {
         FlightFilter {
             first: None,
             last: None,
+            misses: 0,
         }
     }
 
@@ -216,9 +232,11 @@ impl FlightFilter {
 
     /// Takes the frame at time `t` (s, after the last frame's): its line of sight and image
     /// range. Returns the estimate there; None for the first frame of a flight (one frame
-    /// tells no velocity) and for a frame that is no measurement (not finite, not after the
+    /// tells no velocity), for a frame that is no measurement (not finite, not after the
     /// last, a range not positive, a sight not a unit vector), which leaves the filter as it
-    /// was.
+    /// was, and for a frame whose sight is not this flight's (beyond
+    /// [`FlightFilterConfig::sight_gate_sigmas`]), left out until
+    /// [`FlightFilterConfig::max_misses`] in a row start the filter afresh.
     pub fn update(
         &mut self,
         t: f64,
@@ -237,6 +255,19 @@ impl FlightFilter {
         let step = match (self.last, self.first) {
             (Some(last), _) if t > last.t => {
                 let predicted = predict(&last, t, config)?;
+                let gate = f64::from(config.sight_gate_sigmas);
+                if !(sight_distance(&predicted, sight) <= gate) {
+                    self.misses += 1;
+                    if self.misses >= config.max_misses {
+                        *self = Self::new();
+                        self.first = Some(First {
+                            t,
+                            sight: *sight,
+                            range,
+                        });
+                    }
+                    return None;
+                }
                 let (x, p) = correct(&predicted, sight, &range, config);
                 FlightStep {
                     t,
@@ -267,6 +298,7 @@ impl FlightFilter {
             return None;
         }
         self.last = Some(step);
+        self.misses = 0;
         Some(estimate)
     }
 }
@@ -443,6 +475,39 @@ fn process_noise(x: &State, dt: f64, config: &FlightFilterConfig) -> Covariance 
     q
 }
 
+/// Two unit vectors across the sight `dir`: horizontal, and the third of the triad.
+fn across(dir: &Vector3<f64>) -> [Vector3<f64>; 2] {
+    let horizontal = dir.cross(&Vector3::z());
+    let horizontal = if horizontal.norm() > 1e-9 {
+        horizontal.normalize()
+    } else {
+        Vector3::x()
+    };
+    [horizontal, dir.cross(&horizontal)]
+}
+
+/// How far the predicted body origin lies from `sight`, in sigmas of the two angles
+/// (Mahalanobis, the prediction's covariance with the sight's); infinite where that covariance
+/// is singular.
+fn sight_distance(predicted: &Predicted, sight: &Sight) -> f64 {
+    let station = Vector3::from(sight.station_enu_m);
+    let offset = predicted.x.fixed_rows::<3>(0) - station;
+    let distance = offset.norm();
+    let seen = offset / distance;
+    let mut h = SMatrix::<f64, 2, 7>::zeros();
+    let mut angles = SVector::<f64, 2>::zeros();
+    for (row, e) in across(&Vector3::from(sight.dir_enu)).iter().enumerate() {
+        angles[row] = e.dot(&seen);
+        let d = (e - seen * e.dot(&seen)) / distance;
+        h.fixed_view_mut::<1, 3>(row, 0).copy_from(&d.transpose());
+    }
+    let variance = sight.sd_rad * sight.sd_rad;
+    let spread = h * predicted.p * h.transpose() + SMatrix::<f64, 2, 2>::identity() * variance;
+    spread.try_inverse().map_or(f64::INFINITY, |inverse| {
+        libm::sqrt((angles.transpose() * inverse * angles).x)
+    })
+}
+
 /// The measurements of one frame: the sight's two angles (across it, horizontal and up) and the
 /// range.
 const MEASUREMENTS: usize = 3;
@@ -457,14 +522,7 @@ fn correct(
 ) -> (State, Covariance) {
     let station = Vector3::from(sight.station_enu_m);
     let dir = Vector3::from(sight.dir_enu);
-    // Two unit vectors across the sight: horizontal, and the third of the triad.
-    let horizontal = dir.cross(&Vector3::z());
-    let horizontal = if horizontal.norm() > 1e-9 {
-        horizontal.normalize()
-    } else {
-        Vector3::x()
-    };
-    let up = dir.cross(&horizontal);
+    let [horizontal, up] = across(&dir);
     let angle_variance = sight.sd_rad * sight.sd_rad;
     // The image range's variance, raised where it lies beyond `huber_sigmas` of the prediction.
     let (x0, p0) = (predicted.x, predicted.p);
@@ -491,7 +549,7 @@ fn correct(
     let mut x = x0;
     let mut h = SMatrix::<f64, MEASUREMENTS, 7>::zeros();
     let mut gain = SMatrix::<f64, 7, MEASUREMENTS>::zeros();
-    for _ in 0..config.iterations.max(1) {
+    for _ in 0..config.iterations.clamp(1, MAX_ITERATIONS) {
         let offset = x.fixed_rows::<3>(0) - station;
         let distance = offset.norm();
         let seen = offset / distance;
@@ -542,6 +600,265 @@ pub fn smooth(steps: &mut [FlightStep]) {
         if x.iter().chain(p.iter()).all(|v| v.is_finite()) {
             step.x = x;
             step.p = p;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::noise_sequence;
+
+    /// Frames of the test flights.
+    const FRAMES: usize = 20;
+    type Steps = heapless::Vec<FlightStep, FRAMES>;
+    type Pairs = heapless::Vec<(f64, f64), FRAMES>;
+    type Errors = heapless::Vec<f64, FRAMES>;
+
+    /// Standard gravity, as the filter's default.
+    const G: f64 = 9.80665;
+
+    /// A drag-free ballistic flight seen from `station` every `dt` s for `frames` frames, from
+    /// `p0` (m, E) at `v0` (m/s): per frame, its time, true position and true range.
+    fn flight(
+        station: Vector3<f64>,
+        p0: Vector3<f64>,
+        v0: Vector3<f64>,
+        dt: f64,
+        frames: usize,
+    ) -> impl Iterator<Item = (f64, Vector3<f64>, f64)> {
+        (0..frames).map(move |k| {
+            let t = k as f64 * dt;
+            let p = p0 + v0 * t - Vector3::z() * (0.5 * G * t * t);
+            (t, p, (p - station).norm())
+        })
+    }
+
+    /// The sight to `p` from `station`, turned by `(a, b)` rad about two axes across it.
+    fn sight(station: Vector3<f64>, p: Vector3<f64>, (a, b): (f64, f64), sd_rad: f64) -> Sight {
+        let dir = (p - station).normalize();
+        let across = dir.cross(&Vector3::z()).normalize();
+        let up = dir.cross(&across);
+        let turned = (dir + across * a + up * b).normalize();
+        Sight {
+            station_enu_m: station.into(),
+            dir_enu: turned.into(),
+            sd_rad,
+        }
+    }
+
+    /// Runs the filter over a flight with image ranges 4 % off (one sigma) and sights 10 urad
+    /// off: the steps and, per step, the true range and the image range.
+    fn filtered(away: bool) -> (Steps, Pairs) {
+        let config = FlightFilterConfig::DEFAULT;
+        let station = Vector3::new(-900.0, -600.0, 2.0);
+        // Out over the launcher and away from the station, or back towards it.
+        let (p0, v0) = if away {
+            (
+                Vector3::new(0.0, 0.0, 500.0),
+                Vector3::new(80.0, 100.0, 60.0),
+            )
+        } else {
+            (
+                Vector3::new(800.0, 1000.0, 900.0),
+                Vector3::new(-80.0, -100.0, 10.0),
+            )
+        };
+        let mut noise = noise_sequence(60, 11).map(f64::from);
+        let mut filter = FlightFilter::new();
+        let (mut steps, mut truths) = (Steps::new(), Pairs::new());
+        for (t, p, truth) in flight(station, p0, v0, 0.5, FRAMES) {
+            let (n1, n2, n3) = (
+                noise.next().unwrap(),
+                noise.next().unwrap(),
+                noise.next().unwrap(),
+            );
+            let seen = sight(station, p, (1e-5 * n1, 1e-5 * n2), 1e-5);
+            let measured = truth * (1.0 + 0.04 * n3);
+            let reading = RangeReading {
+                range_m: measured,
+                sd_m: 0.04 * measured,
+            };
+            if filter.update(t, &seen, reading, &config).is_some() {
+                steps.push(filter.last_step().unwrap()).unwrap();
+                truths.push((truth, measured)).unwrap();
+            }
+        }
+        (steps, truths)
+    }
+
+    /// The error of each step's range, a fraction of the truth.
+    fn errors(steps: &[FlightStep], truths: &[(f64, f64)]) -> Errors {
+        steps
+            .iter()
+            .zip(truths)
+            .map(|(s, (truth, _))| (s.estimate().range.range_m - truth) / truth)
+            .collect()
+    }
+
+    /// Gravity's bend across the lines of sight scales the flight: after ten seconds the range is
+    /// known to a few parts in a thousand where the image ranges scatter by 4 %, its sigma under
+    /// 1 %, and the sigma covers the error.
+    #[test]
+    fn gravity_scales_the_flight_from_its_lines_of_sight() {
+        let (steps, truths) = filtered(true);
+        assert_eq!(steps.len(), 19, "every frame after the first");
+        let errors = errors(&steps, &truths);
+        let last = steps.last().unwrap().estimate().range;
+        let (truth, _) = truths.last().unwrap();
+        let error = errors.last().unwrap();
+        assert!(libm::fabs(*error) < 0.004, "last range off by {error}");
+        assert!(
+            libm::fabs(last.range_m - truth) <= 2.5 * last.sd_m,
+            "error {} m, sigma {} m",
+            last.range_m - truth,
+            last.sd_m
+        );
+        assert!(last.sd_m < 0.01 * truth, "sigma {} m", last.sd_m);
+        // The image ranges alone: their rms over the last half.
+        let image_rms = libm::sqrt(
+            truths[10..]
+                .iter()
+                .map(|(t, m)| ((m - t) / t).powi(2))
+                .sum::<f64>()
+                / 9.0,
+        );
+        let rms = libm::sqrt(errors[10..].iter().map(|e| e * e).sum::<f64>() / 9.0);
+        assert!(rms < 0.2 * image_rms, "filter {rms}, image {image_rms}");
+    }
+
+    /// The range rate's sign says whether the flight opens or closes the range: the nose of a
+    /// nose-first flight points away or towards the camera.
+    #[test]
+    fn the_range_rate_tells_away_from_towards() {
+        for away in [true, false] {
+            let (steps, _) = filtered(away);
+            for step in &steps[4..] {
+                let (rate, sd) = step.estimate().rate_m_s;
+                assert_eq!(rate > 0.0, away, "rate {rate} m/s");
+                assert!(libm::fabs(rate) > 3.0 * sd, "rate {rate} +- {sd} m/s");
+            }
+        }
+    }
+
+    /// Smoothing a recorded flight gives its first frames the later frames' scale: their range
+    /// comes much closer than the filter's, and the last frame stays as it was.
+    #[test]
+    fn smoothing_gives_the_first_frames_the_flights_scale() {
+        let (steps, truths) = filtered(true);
+        let mut smoothed = steps.clone();
+        smooth(&mut smoothed);
+        let rms = |e: &[f64]| libm::sqrt(e.iter().map(|e| e * e).sum::<f64>() / e.len() as f64);
+        let (before, after) = (errors(&steps, &truths), errors(&smoothed, &truths));
+        assert!(
+            rms(&after[..8]) < 0.3 * rms(&before[..8]),
+            "first frames: filtered {}, smoothed {}",
+            rms(&before[..8]),
+            rms(&after[..8])
+        );
+        assert!(rms(&after) < 0.004, "smoothed rms {}", rms(&after));
+        assert_eq!(smoothed.last(), steps.last());
+    }
+
+    /// A sight a milliradian off the flight (a detection that took something else) is left out,
+    /// and the flight's next frames go on as if it had not been; three such in a row start the
+    /// filter afresh.
+    #[test]
+    fn a_sight_off_the_flight_is_left_out() {
+        let config = FlightFilterConfig::DEFAULT;
+        let station = Vector3::new(-900.0, -600.0, 2.0);
+        let (p0, v0) = (
+            Vector3::new(0.0, 0.0, 500.0),
+            Vector3::new(80.0, 100.0, 60.0),
+        );
+        let reading = |truth: f64| RangeReading {
+            range_m: truth,
+            sd_m: 0.04 * truth,
+        };
+        let mut clean = FlightFilter::new();
+        let mut hit = FlightFilter::new();
+        for (k, (t, p, truth)) in flight(station, p0, v0, 0.5, 12).enumerate() {
+            let seen = sight(station, p, (0.0, 0.0), 1e-5);
+            let clean_estimate = clean.update(t, &seen, reading(truth), &config);
+            let off = sight(station, p, (1e-3, 0.0), 1e-5);
+            let estimate = if k == 6 {
+                let left_out = hit.update(t, &off, reading(0.7 * truth), &config);
+                assert!(left_out.is_none(), "frame {k} taken");
+                continue;
+            } else {
+                hit.update(t, &seen, reading(truth), &config)
+            };
+            if k > 6 {
+                let (a, b) = (estimate.unwrap().range, clean_estimate.unwrap().range);
+                assert!(
+                    libm::fabs(a.range_m - b.range_m) < 0.5 * b.sd_m,
+                    "frame {k}: {} against {} m",
+                    a.range_m,
+                    b.range_m
+                );
+            }
+        }
+        // Three frames in a row off the flight: the filter starts afresh from the third, and the
+        // next one starts the new flight.
+        for (k, (t, p, truth)) in flight(station, p0, v0, 0.5, 16).enumerate().skip(12) {
+            let off = sight(station, p, (1e-3, 0.0), 1e-5);
+            let taken = hit.update(t, &off, reading(truth), &config);
+            assert_eq!(taken.is_some(), k == 15, "frame {k}");
+            if k == 14 {
+                assert!(hit.last_step().is_none(), "not started afresh");
+            }
+        }
+    }
+
+    /// What is no measurement leaves the filter as it was.
+    #[test]
+    fn what_is_no_measurement_is_refused() {
+        let config = FlightFilterConfig::DEFAULT;
+        let station = Vector3::new(0.0, 0.0, 0.0);
+        let at = |t: f64| Vector3::new(1000.0 + 100.0 * t, 0.0, 500.0);
+        let good = |t: f64| sight(station, at(t), (0.0, 0.0), 1e-5);
+        let range = |t: f64| RangeReading {
+            range_m: at(t).norm(),
+            sd_m: 20.0,
+        };
+        let mut filter = FlightFilter::new();
+        assert!(
+            filter
+                .update(0.0, &good(0.0), range(0.0), &config)
+                .is_none()
+        );
+        assert!(
+            filter
+                .update(0.5, &good(0.5), range(0.5), &config)
+                .is_some()
+        );
+        let kept = filter.last_step();
+        let not_unit = Sight {
+            dir_enu: [1.0, 1.0, 0.0],
+            ..good(1.0)
+        };
+        let nan_station = Sight {
+            station_enu_m: [f64::NAN, 0.0, 0.0],
+            ..good(1.0)
+        };
+        let no_range = RangeReading {
+            range_m: -1.0,
+            ..range(1.0)
+        };
+        let nan_sd = RangeReading {
+            sd_m: f64::NAN,
+            ..range(1.0)
+        };
+        for (t, sight, range) in [
+            (1.0, not_unit, range(1.0)),
+            (1.0, nan_station, range(1.0)),
+            (1.0, good(1.0), no_range),
+            (1.0, good(1.0), nan_sd),
+            (f64::INFINITY, good(1.0), range(1.0)),
+            (0.5, good(1.0), range(1.0)),
+        ] {
+            assert!(filter.update(t, &sight, range, &config).is_none());
+            assert_eq!(filter.last_step(), kept);
         }
     }
 }

@@ -13,6 +13,7 @@ use imade_core::mask::ChipMask;
 use imade_core::segment::bar::BarConfig;
 use imade_core::segment::corridor::CorridorConfig;
 use imade_core::segment::terrain::TerrainConfig;
+use imade_core::flight_filter::FlightFilterConfig;
 use imade_core::world::{Mount, WorldConfig};
 use imade_core::{
     BodyPolarity, Camera, Config, DetectConfig, FrameInput, GuidedLoopConfig, GuidedMethod,
@@ -105,6 +106,8 @@ enum ConfigSpec {
         /// not looked for).
         terrain: Option<([f32; 6], [u16; 3])>,
         max_predicted_scatter: f32,
+        /// The flight filter's float tunables in field order, its iterations and whether it runs.
+        flight: ([f32; 9], u8, bool),
     },
 }
 
@@ -213,6 +216,7 @@ fn config(spec: &ConfigSpec) -> Config {
             world: w,
             terrain,
             max_predicted_scatter,
+            flight: (f, iterations, flight_enabled),
         } => Config {
             range_use: range_use(ignore_range),
             detect: DetectConfig {
@@ -371,6 +375,19 @@ fn config(spec: &ConfigSpec) -> Config {
                     RangeSmoothing::MotionModel
                 },
                 range_filter: RangeFilterConfig::DEFAULT,
+                flight: FlightFilterConfig {
+                    enabled: flight_enabled,
+                    gravity_m_s2: f[0],
+                    acceleration_psd: f[1],
+                    along_jerk_psd: f[2],
+                    sight_sd_px: f[3],
+                    min_range_fraction: f[4],
+                    initial_velocity_sd_m_s: f[5],
+                    initial_along_sd_m_s2: f[6],
+                    huber_sigmas: f[7],
+                    max_step_s: f[8],
+                    iterations: u32::from(iterations),
+                },
                 tz_smoothing_r,
                 tz_smoothing_interval_s,
                 window_frames: usize::from(window_frames),
