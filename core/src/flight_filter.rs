@@ -26,6 +26,7 @@
 //! rounding makes host and firmware agree bit for bit. A recorded clip's steps can be smoothed
 //! afterwards ([`smooth`], Rauch-Tung-Striebel).
 
+use core::cmp::Ordering;
 use nalgebra::{SMatrix, SVector, Vector3};
 
 /// State: position (m, E), velocity (m/s, E), acceleration along the velocity (m/s²).
@@ -256,7 +257,9 @@ impl FlightFilter {
             (Some(last), _) if t > last.t => {
                 let predicted = predict(&last, t, config)?;
                 let gate = f64::from(config.sight_gate_sigmas);
-                if !(sight_distance(&predicted, sight) <= gate) {
+                // A NaN distance is no closer than the gate.
+                let within = sight_distance(&predicted, sight).partial_cmp(&gate);
+                if !matches!(within, Some(Ordering::Less | Ordering::Equal)) {
                     self.misses += 1;
                     if self.misses >= config.max_misses {
                         *self = Self::new();

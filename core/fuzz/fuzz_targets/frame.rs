@@ -106,8 +106,9 @@ enum ConfigSpec {
         /// not looked for).
         terrain: Option<([f32; 6], [u16; 3])>,
         max_predicted_scatter: f32,
-        /// The flight filter's float tunables in field order, its iterations and whether it runs.
-        flight: ([f32; 9], u8, bool),
+        /// The flight filter's float tunables in field order, its iterations, misses and whether
+        /// it runs.
+        flight: ([f32; 10], u8, u8, bool),
     },
 }
 
@@ -216,7 +217,7 @@ fn config(spec: &ConfigSpec) -> Config {
             world: w,
             terrain,
             max_predicted_scatter,
-            flight: (f, iterations, flight_enabled),
+            flight: (f, iterations, misses, flight_enabled),
         } => Config {
             range_use: range_use(ignore_range),
             detect: DetectConfig {
@@ -385,7 +386,9 @@ fn config(spec: &ConfigSpec) -> Config {
                     initial_velocity_sd_m_s: f[5],
                     initial_along_sd_m_s2: f[6],
                     huber_sigmas: f[7],
-                    max_step_s: f[8],
+                    sight_gate_sigmas: f[8],
+                    max_misses: u32::from(misses),
+                    max_step_s: f[9],
                     iterations: u32::from(iterations),
                 },
                 tz_smoothing_r,
