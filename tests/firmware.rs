@@ -28,7 +28,25 @@ fn root() -> PathBuf {
 #[test]
 fn firmware_results_equal_the_hosts() -> anyhow::Result<()> {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("firmware-small-known-range");
-    check_firmware(&root().join("fixtures/small-known-range"), "bundled", &dir)
+    check_firmware(
+        &root().join("fixtures/small-known-range"),
+        RangeArg::Auto,
+        "bundled",
+        &dir,
+    )
+}
+
+/// Without the range sensor, with the mount's pointing: the flight filter gives the range on
+/// the firmware as on the host.
+#[test]
+fn firmware_flies_the_flight_filter_as_the_host() -> anyhow::Result<()> {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("firmware-small-unknown-range");
+    check_firmware(
+        &root().join("fixtures/small-unknown-range"),
+        RangeArg::Ignore,
+        "bundled",
+        &dir,
+    )
 }
 
 /// A projectile other than the reference, its model built from its mesh (`imade model mesh`,
@@ -45,14 +63,15 @@ fn firmware_runs_a_model_built_from_a_mesh() -> anyhow::Result<()> {
     let lut = model.to_str().context("a UTF-8 path")?;
     check_firmware(
         &root().join(format!("fixtures/small-{id}")),
+        RangeArg::Auto,
         lut,
         &dir.join("run"),
     )
 }
 
-/// Runs `clip` with the model choice `lut` (`bundled` or a model file) on the firmware and on the
-/// host, in `dir`, and compares them.
-fn check_firmware(clip: &Path, lut: &str, dir: &Path) -> anyhow::Result<()> {
+/// Runs `clip` using its range as `range` says, with the model choice `lut` (`bundled` or a
+/// model file), on the firmware and on the host, in `dir`, and compares them.
+fn check_firmware(clip: &Path, range: RangeArg, lut: &str, dir: &Path) -> anyhow::Result<()> {
     let clip = clip.to_path_buf();
     if dir.exists() {
         std::fs::remove_dir_all(dir)?;
@@ -63,11 +82,11 @@ fn check_firmware(clip: &Path, lut: &str, dir: &Path) -> anyhow::Result<()> {
         lut: lut.into(),
         no_grey_fit: true,
         polarity: PolarityArg::default(),
-        ..imade_tests::run_args(&clip, RangeArg::Auto, &host_dir)
+        ..imade_tests::run_args(&clip, range, &host_dir)
     })?;
     let host_csv = host_dir.join("results.csv");
     let packed = dir.join("clip.pack");
-    pack_clip(&clip, &packed, RangeArg::Auto, lut)?;
+    pack_clip(&clip, &packed, range, lut)?;
 
     let out = dir.join("firmware");
     let status = Command::new(root().join("firmware-sim/run"))

@@ -85,7 +85,8 @@ pub struct Pipeline<
     station: Station,
     solved: Option<Solved>,
     range_step: Option<FilterStep>,
-    flight_step: Option<FlightStep>,
+    /// The last frame's time in the temporal stage, s (its flight step is kept there).
+    frame_t: Option<f32>,
 }
 
 impl<
@@ -109,7 +110,7 @@ impl<
             station: Station { enu_m: [0.0; 3] },
             solved: None,
             range_step: None,
-            flight_step: None,
+            frame_t: None,
         }
     }
 
@@ -177,7 +178,7 @@ impl<
     /// The flight filter's step at the last frame, where it took that frame: the steps of a
     /// recorded clip, in order, are what [`crate::flight_filter::smooth`] smooths.
     pub fn last_flight_step(&self) -> Option<FlightStep> {
-        self.flight_step
+        self.temporal.flight_step(self.frame_t?)
     }
 
     /// The range filter's step at the last frame, where the filter took a range there (the
@@ -214,7 +215,7 @@ impl<
         self.table_match.clear();
         self.solved = None;
         self.range_step = None;
-        self.flight_step = None;
+        self.frame_t = None;
         let input = match self.check(input) {
             Ok(input) => input,
             Err(e) => return FrameResult::from_error(e),
@@ -240,7 +241,7 @@ impl<
             &self.config.temporal,
         );
         self.range_step = self.temporal.range_step(prediction.t);
-        self.flight_step = self.temporal.flight_step(prediction.t);
+        self.frame_t = Some(prediction.t);
         let (target, measurement, estimate) = match (measured, estimate) {
             (Ok((target, m)), Some(estimate)) => (target, m, estimate),
             (Err(e), _) => return FrameResult::from_error(e),
