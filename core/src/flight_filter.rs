@@ -147,26 +147,25 @@ struct First {
     range: RangeReading,
 }
 
-/// The prediction a step started from: the previous step's time and state (which tell
-/// [`smooth`] whose prediction it is), the predicted state and covariance, and the transition's
+/// A step's prediction from the step before it: state, covariance and the transition's
 /// Jacobian.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Predicted {
-    from_t: f64,
-    from_x: State,
     x: State,
     p: Covariance,
     transition: Covariance,
 }
 
-/// One frame of the filter, as kept to smooth a recorded clip ([`smooth`]).
+/// One frame of the filter, as kept to smooth a recorded clip ([`smooth`]). Its prediction is
+/// not kept (the firmware holds a step in its pipeline): the smoother computes it again from the
+/// step before, which `from` names (its time and state; None for a flight's first step).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FlightStep {
     t: f64,
     x: State,
     p: Covariance,
     station: Vector3<f64>,
-    predicted: Option<Predicted>,
+    from: Option<(f64, State)>,
 }
 
 impl FlightStep {
@@ -277,7 +276,7 @@ impl FlightFilter {
                     x,
                     p,
                     station: Vector3::from(sight.station_enu_m),
-                    predicted: Some(predicted),
+                    from: Some((last.t, last.x)),
                 }
             }
             (None, Some(first)) if t > first.t => start(&first, t, sight, &range, config),
@@ -350,7 +349,7 @@ fn start(
         x,
         p,
         station: Vector3::from(sight.station_enu_m),
-        predicted: None,
+        from: None,
     }
 }
 
@@ -424,13 +423,9 @@ fn predict(last: &FlightStep, t: f64, config: &FlightFilterConfig) -> Option<Pre
     let transition = Covariance::identity() + j + j * j * 0.5;
     let x = propagate(&last.x, dt, gravity, max_step);
     let p = transition * last.p * transition.transpose() + process_noise(&middle, dt, config);
-    x.iter().all(|v| v.is_finite()).then_some(Predicted {
-        from_t: last.t,
-        from_x: last.x,
-        x,
-        p,
-        transition,
-    })
+    x.iter()
+        .all(|v| v.is_finite())
+        .then_some(Predicted { x, p, transition })
 }
 
 /// The process noise over `dt` s: white acceleration on each axis, and white jerk of the
@@ -579,21 +574,22 @@ fn correct(
     (x, p)
 }
 
-/// Smooths the steps of a recorded clip in place (Rauch-Tung-Striebel): each frame's estimate
-/// then uses the frames after it too. `steps` are in time order; where a step's prediction did
-/// not come from the step before it (a new flight, a frame left out), the smoothing restarts
-/// there.
-pub fn smooth(steps: &mut [FlightStep]) {
+/// Smooths the steps of a recorded clip in place (Rauch-Tung-Striebel), the filter's `config`
+/// carrying each step to the next as the filter did: each frame's estimate then uses the frames
+/// after it too. `steps` are in time order; where a step was not predicted from the step before
+/// it (a new flight, a frame left out), the smoothing restarts there.
+pub fn smooth(steps: &mut [FlightStep], config: &FlightFilterConfig) {
     for k in (1..steps.len()).rev() {
         let (Some(next), Some(step)) = (steps.get(k).copied(), steps.get_mut(k - 1)) else {
             continue;
         };
-        let Some(predicted) = next.predicted else {
-            continue;
-        };
-        if predicted.from_t != step.t || predicted.from_x != step.x {
+        // The step not yet smoothed is the one the filter predicted the next from.
+        if next.from != Some((step.t, step.x)) {
             continue;
         }
+        let Some(predicted) = predict(step, next.t, config) else {
+            continue;
+        };
         let Some(predicted_inverse) = predicted.p.try_inverse() else {
             continue;
         };
@@ -750,7 +746,7 @@ mod tests {
     fn smoothing_gives_the_first_frames_the_flights_scale() {
         let (steps, truths) = filtered(true);
         let mut smoothed = steps.clone();
-        smooth(&mut smoothed);
+        smooth(&mut smoothed, &FlightFilterConfig::DEFAULT);
         let rms = |e: &[f64]| libm::sqrt(e.iter().map(|e| e * e).sum::<f64>() / e.len() as f64);
         let (before, after) = (errors(&steps, &truths), errors(&smoothed, &truths));
         assert!(

@@ -44,7 +44,7 @@ pub fn smoothed_results(pipeline: &Pipeline, recorded: &[Recorded]) -> Vec<(usiz
     let mut steps: Vec<FilterStep> = stepped.iter().filter_map(|r| r.step).collect();
     range_filter::smooth(&mut steps);
     let mut flights: Vec<FlightStep> = stepped.iter().filter_map(|r| r.flight).collect();
-    flight_filter::smooth(&mut flights);
+    flight_filter::smooth(&mut flights, &pipeline.config().temporal.flight);
     // Each stepped frame's place among the flight steps, where it has one.
     let mut next_flight = 0;
     let flight_index: Vec<Option<usize>> = stepped
