@@ -232,7 +232,11 @@ impl<
                 diameter_px: m.hypothesis.silhouette.diameter_px,
                 blur_px: m.hypothesis.silhouette.sigma_px,
             },
-            sight: input.mount.and_then(|mount| self.sight(m, &mount)),
+            // The flight filter's: it runs where the range is the image's.
+            sight: input
+                .mount
+                .filter(|_| input.sensor_range_m.is_none())
+                .and_then(|mount| self.sight(m, &mount)),
         });
         let estimate = self.temporal.update(
             &prediction,
