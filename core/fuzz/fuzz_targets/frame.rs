@@ -108,7 +108,7 @@ enum ConfigSpec {
         max_predicted_scatter: f32,
         /// The flight filter's float tunables in field order, its iterations, misses and whether
         /// it runs.
-        flight: ([f32; 10], u8, u8, bool),
+        flight: ([f32; 12], u8, u8, bool),
     },
 }
 
@@ -383,12 +383,14 @@ fn config(spec: &ConfigSpec) -> Config {
                     along_jerk_psd: f[2],
                     sight_sd_px: f[3],
                     min_range_fraction: f[4],
-                    initial_velocity_sd_m_s: f[5],
-                    initial_along_sd_m_s2: f[6],
-                    huber_sigmas: f[7],
-                    sight_gate_sigmas: f[8],
+                    range_bias_sd: f[5],
+                    range_bias_psd: f[6],
+                    initial_velocity_sd_m_s: f[7],
+                    initial_along_sd_m_s2: f[8],
+                    huber_sigmas: f[9],
+                    sight_gate_sigmas: f[10],
                     max_misses: u32::from(misses),
-                    max_step_s: f[9],
+                    max_step_s: f[11],
                     iterations: u32::from(iterations),
                 },
                 tz_smoothing_r,
