@@ -84,8 +84,12 @@ pub struct Hypothesis {
     pub silhouette: Silhouette,
     /// Full-frame px of the chip's top-left pixel.
     pub origin: (i32, i32),
-    /// The range sensor's slant range, m, where one is used.
-    pub sensor_range_m: Option<f32>,
+    /// The slant range the image stages hold the body's scale at, m, where there is one: a
+    /// range sensor's reading, or the flight filter's where it is sure ([`Hypothesis::from_flight`]).
+    pub fixed_range_m: Option<f32>,
+    /// True where `fixed_range_m` is the flight filter's prediction (no range sensor,
+    /// [`crate::flight_filter::FlightFilterConfig::hold_fraction`]).
+    pub from_flight: bool,
     /// Slant range from the silhouette's diameter, m, where it gives a finite one.
     pub image_range_m: Option<f32>,
     /// The slant range the hypothesis is solved at: the sensor's, else the image's, m.
@@ -110,11 +114,18 @@ impl Hypothesis {
         Some(Hypothesis {
             silhouette: *silhouette,
             origin,
-            sensor_range_m,
+            fixed_range_m: sensor_range_m,
+            from_flight: false,
             image_range_m,
             range_m,
             solution: solve(silhouette, origin, camera, model, range_m),
         })
+    }
+
+    /// The range sensor's reading the hypothesis was solved at, m, where it was (not the
+    /// flight filter's).
+    pub fn sensor_range_m(&self) -> Option<f32> {
+        self.fixed_range_m.filter(|_| !self.from_flight)
     }
 
     /// The closed form at slant range `range_m` (the temporal stage's).

@@ -94,6 +94,10 @@ pub struct FlightFilterConfig {
     pub sight_gate_sigmas: f32,
     /// ... and after this many such frames in a row the filter starts afresh from the last.
     pub max_misses: u32,
+    /// Where the filter's range predicted for a frame is this sure (one sigma, a fraction of
+    /// it), the grey-level fit holds the body's scale at it, as at a range sensor's reading, and
+    /// the frame's range is not taken again from its image (it would be the prediction's).
+    pub hold_fraction: f32,
     /// The longest integration step, s.
     pub max_step_s: f32,
     /// Linearizations of each frame's correction (1 to [`MAX_ITERATIONS`]).
@@ -116,6 +120,7 @@ impl FlightFilterConfig {
         huber_sigmas: 3.0,
         sight_gate_sigmas: 6.0,
         max_misses: 3,
+        hold_fraction: 0.005,
         max_step_s: 0.05,
         iterations: 3,
     };
@@ -249,6 +254,22 @@ impl FlightFilter {
         self.last
     }
 
+    /// The range the flight predicts at time `t` (s, after the last frame's) and its one sigma;
+    /// None before the filter has started or where the prediction is not finite.
+    pub fn predicted_range(&self, t: f64, config: &FlightFilterConfig) -> Option<RangeReading> {
+        let last = self.last.filter(|last| t > last.t)?;
+        let predicted = predict(&last, t, config)?;
+        let range = FlightStep {
+            t,
+            x: predicted.x,
+            p: predicted.p,
+            ..last
+        }
+        .estimate()
+        .range;
+        (range.range_m.is_finite() && range.sd_m.is_finite()).then_some(range)
+    }
+
     /// Takes the frame at time `t` (s, after the last frame's): its line of sight and image
     /// range. Returns the estimate there; None for the first frame of a flight (one frame
     /// tells no velocity), for a frame that is no measurement (not finite, not after the
@@ -263,16 +284,39 @@ impl FlightFilter {
         range: RangeReading,
         config: &FlightFilterConfig,
     ) -> Option<FlightEstimate> {
-        if !is_measurement(t, sight, &range) {
+        self.take(t, sight, Some(range), config)
+    }
+
+    /// Takes the frame at time `t` as [`FlightFilter::update`] does, but for its sight alone:
+    /// its range was the filter's own prediction (the grey-level fit held the scale there,
+    /// [`FlightFilterConfig::hold_fraction`]). A flight not yet started takes nothing.
+    pub fn update_sight(
+        &mut self,
+        t: f64,
+        sight: &Sight,
+        config: &FlightFilterConfig,
+    ) -> Option<FlightEstimate> {
+        self.take(t, sight, None, config)
+    }
+
+    /// [`FlightFilter::update`], with or without the frame's image range.
+    fn take(
+        &mut self,
+        t: f64,
+        sight: &Sight,
+        range: Option<RangeReading>,
+        config: &FlightFilterConfig,
+    ) -> Option<FlightEstimate> {
+        if !is_measurement(t, sight, range.as_ref()) {
             return None;
         }
         let fraction = f64::from(config.min_range_fraction);
-        let range = RangeReading {
+        let range = range.map(|range| RangeReading {
             sd_m: range.sd_m.max(fraction * range.range_m),
             ..range
-        };
-        let step = match (self.last, self.first) {
-            (Some(last), _) if t > last.t => {
+        });
+        let step = match (self.last, self.first, range) {
+            (Some(last), _, range) if t > last.t => {
                 let predicted = predict(&last, t, config)?;
                 let gate = f64::from(config.sight_gate_sigmas);
                 // A NaN distance is no closer than the gate.
@@ -284,12 +328,12 @@ impl FlightFilter {
                         self.first = Some(First {
                             t,
                             sight: *sight,
-                            range,
+                            range: range?,
                         });
                     }
                     return None;
                 }
-                let (x, p) = correct(&predicted, sight, &range, config);
+                let (x, p) = correct(&predicted, sight, range.as_ref(), config);
                 FlightStep {
                     t,
                     x,
@@ -298,9 +342,10 @@ impl FlightFilter {
                     from: Some((last.t, last.x)),
                 }
             }
-            (None, Some(first)) if t > first.t => start(&first, t, sight, &range, config),
-            (Some(_), _) | (None, Some(_)) => return None,
-            (None, None) => {
+            (None, Some(first), Some(range)) if t > first.t => {
+                start(&first, t, sight, &range, config)
+            }
+            (None, None, Some(range)) => {
                 self.first = Some(First {
                     t,
                     sight: *sight,
@@ -308,6 +353,7 @@ impl FlightFilter {
                 });
                 return None;
             }
+            _ => return None,
         };
         let estimate = step.estimate();
         let finite = step.x.iter().chain(step.p.iter()).all(|v| v.is_finite())
@@ -325,17 +371,20 @@ impl FlightFilter {
 }
 
 /// Whether a frame's inputs make a measurement.
-fn is_measurement(t: f64, sight: &Sight, range: &RangeReading) -> bool {
+fn is_measurement(t: f64, sight: &Sight, range: Option<&RangeReading>) -> bool {
     let dir = Vector3::from(sight.dir_enu);
+    let range_ok = range.is_none_or(|range| {
+        range.range_m.is_finite()
+            && range.range_m > 0.0
+            && range.sd_m.is_finite()
+            && range.sd_m > 0.0
+    });
     t.is_finite()
         && sight.station_enu_m.iter().all(|v| v.is_finite())
         && libm::fabs(dir.norm() - 1.0) < 1e-6
         && sight.sd_rad.is_finite()
         && sight.sd_rad > 0.0
-        && range.range_m.is_finite()
-        && range.range_m > 0.0
-        && range.sd_m.is_finite()
-        && range.sd_m > 0.0
+        && range_ok
 }
 
 /// The filter started at the second frame: its position at the image range, the velocity the
@@ -529,7 +578,7 @@ fn sight_distance(predicted: &Predicted, sight: &Sight) -> f64 {
 }
 
 /// The measurements of one frame: the sight's two angles (across it, horizontal and up) and the
-/// range.
+/// image range (where the frame has one).
 const MEASUREMENTS: usize = 3;
 
 /// The predicted state corrected by the frame's sight and image range, relinearized
@@ -537,7 +586,7 @@ const MEASUREMENTS: usize = 3;
 fn correct(
     predicted: &Predicted,
     sight: &Sight,
-    range: &RangeReading,
+    range: Option<&RangeReading>,
     config: &FlightFilterConfig,
 ) -> (State, Covariance) {
     let station = Vector3::from(sight.station_enu_m);
@@ -546,7 +595,8 @@ fn correct(
     let angle_variance = sight.sd_rad * sight.sd_rad;
     // The image range's variance, raised where it lies beyond `huber_sigmas` of the prediction.
     let (x0, p0) = (predicted.x, predicted.p);
-    let range_variance = {
+    // Without a range its row of the Jacobian stays zero: no gain, whatever its variance.
+    let range_variance = range.map_or(1.0, |range| {
         let (value, row) = image_range(&x0, &station);
         let r = range.sd_m * range.sd_m;
         let spread = (row * p0 * row.transpose()).x + r;
@@ -557,7 +607,7 @@ fn correct(
         } else {
             r
         }
-    };
+    });
     let noise = SMatrix::<f64, MEASUREMENTS, MEASUREMENTS>::from_diagonal(&SVector::from([
         angle_variance,
         angle_variance,
@@ -574,13 +624,19 @@ fn correct(
         // The predicted angles (the sight's components across the measured one) and range.
         let values =
             SVector::<f64, MEASUREMENTS>::from([horizontal.dot(&seen), up.dot(&seen), image_range]);
-        let measured = SVector::<f64, MEASUREMENTS>::from([0.0, 0.0, range.range_m]);
+        let measured = SVector::<f64, MEASUREMENTS>::from([
+            0.0,
+            0.0,
+            range.map_or(image_range, |r| r.range_m),
+        ]);
         // d(e . seen)/dp = (e - seen (e . seen)) / distance.
         for (row, e) in [horizontal, up].iter().enumerate() {
             let d = (e - seen * e.dot(&seen)) / distance;
             h.fixed_view_mut::<1, 3>(row, 0).copy_from(&d.transpose());
         }
-        h.set_row(2, &range_row);
+        if range.is_some() {
+            h.set_row(2, &range_row);
+        }
         let innovation_cov = h * p0 * h.transpose() + noise;
         let Some(inverse) = innovation_cov.try_inverse() else {
             return (x0, p0);
@@ -840,6 +896,60 @@ mod tests {
                 assert!(hit.last_step().is_none(), "not started afresh");
             }
         }
+    }
+
+    /// A flight sure of its range goes on by its sights alone (frames whose scale was held at
+    /// its prediction, where its sigma is under the hold's fraction): its range stays within
+    /// two sigmas of the truth.
+    #[test]
+    fn a_sure_flight_goes_on_by_its_sights() {
+        let config = FlightFilterConfig::DEFAULT;
+        // Sure at 1 % (4 % image ranges and a flight of 20 s reach the default's 0.5 % only at
+        // times).
+        let hold = 0.01;
+        let station = Vector3::new(-900.0, -600.0, 2.0);
+        let (p0, v0) = (
+            Vector3::new(0.0, 0.0, 500.0),
+            Vector3::new(80.0, 100.0, 60.0),
+        );
+        let mut noise = noise_sequence(150, 5).map(f64::from);
+        let mut filter = FlightFilter::new();
+        let mut by_sight = 0;
+        for (k, (t, p, truth)) in flight(station, p0, v0, 0.5, 40).enumerate() {
+            let (n1, n2, n3) = (
+                noise.next().unwrap(),
+                noise.next().unwrap(),
+                noise.next().unwrap(),
+            );
+            let seen = sight(station, p, (1e-5 * n1, 1e-5 * n2), 1e-5);
+            let sure = filter
+                .predicted_range(t, &config)
+                .filter(|r| r.sd_m < hold * r.range_m);
+            let Some(predicted) = sure else {
+                let measured = truth * (1.0 + 0.04 * n3);
+                let reading = RangeReading {
+                    range_m: measured,
+                    sd_m: 0.04 * measured,
+                };
+                filter.update(t, &seen, reading, &config);
+                continue;
+            };
+            by_sight += 1;
+            assert!(libm::fabs(predicted.range_m - truth) < 2.5 * predicted.sd_m);
+            let range = filter.update_sight(t, &seen, &config).unwrap().range;
+            assert!(
+                libm::fabs(range.range_m - truth) <= 2.0 * range.sd_m,
+                "frame {k}: {} against {truth} m, sigma {}",
+                range.range_m,
+                range.sd_m
+            );
+        }
+        assert!(by_sight >= 10, "{by_sight} frames by their sight alone");
+        // A flight not yet started takes no sight alone.
+        let mut empty = FlightFilter::new();
+        let seen = sight(station, p0, (0.0, 0.0), 1e-5);
+        assert!(empty.update_sight(0.0, &seen, &config).is_none());
+        assert!(empty.last_step().is_none());
     }
 
     /// What is no measurement leaves the filter as it was.

@@ -237,6 +237,7 @@ impl<
                 .mount
                 .filter(|_| input.sensor_range_m.is_none())
                 .and_then(|mount| self.sight(m, &mount)),
+            range_held: m.hypothesis.from_flight,
         });
         let estimate = self.temporal.update(
             &prediction,
@@ -382,13 +383,22 @@ impl<
             .detect
             .cut_mask(chip, &config.detect, &target, &silhouette)?;
         let origin = (chip.x0(), chip.y0());
+        // Without a sensor, the flight's range where it is sure: the image stages hold the
+        // scale there, as at a sensor's reading.
+        let held_range_m = prediction
+            .held_range_m
+            .filter(|_| input.sensor_range_m.is_none());
         let hypothesis = Hypothesis::solve(
             &silhouette,
             origin,
             &self.camera,
             &self.model,
-            input.sensor_range_m,
+            input.sensor_range_m.or(held_range_m),
         )
+        .map(|hypothesis| Hypothesis {
+            from_flight: held_range_m.is_some(),
+            ..hypothesis
+        })
         .ok_or(FrameError::Unmeasurable)?;
         let mut measurement = self.table_match.measure(
             chip,
@@ -404,7 +414,7 @@ impl<
                 chip,
                 background: self.detect.background(),
                 origin,
-                range_m: input.sensor_range_m,
+                range_m: hypothesis.fixed_range_m,
                 plume_at_tail: hypothesis.silhouette.plume_at_tail,
                 cluttered_sky: self.detect.background().follows_corridor(),
                 flight_tilt_deg: flight.and_then(|f| f.tilt_deg()),
@@ -594,7 +604,7 @@ impl<
             pitch_alt_deg: alternative.pitch_deg,
             yaw_alt_deg: alternative.yaw_deg,
             yaw_resolved: estimate.choice.resolved,
-            range_used: measured.hypothesis.sensor_range_m.is_some(),
+            range_used: measured.hypothesis.sensor_range_m().is_some(),
             roll_deg: roll.map(|r| r.0),
             roll_sd_deg: roll.map(|r| r.1),
             // The depth is the slant range times the line of sight's cosine: so is its sigma.

@@ -111,6 +111,9 @@ pub struct Prediction {
     /// The slant range expected at this frame from the recent ones (the last range in the
     /// window carried along the trend), m; None before any.
     pub range_m: Option<f32>,
+    /// The flight filter's range for this frame, m, where it is sure enough to hold the image's
+    /// scale at ([`FlightFilterConfig::hold_fraction`]).
+    pub held_range_m: Option<f32>,
 }
 
 /// One frame's observation for the temporal state.
@@ -125,6 +128,9 @@ pub struct Observation {
     /// The line of sight to the body origin in the world frame, where the frame came with the
     /// mount's pointing.
     pub sight: Option<Sight>,
+    /// Whether the image stages held the scale at the flight's range
+    /// ([`Prediction::held_range_m`]): the frame then gives the flight its sight alone.
+    pub range_held: bool,
 }
 
 /// The temporal stage's estimate for a frame with a pose.
@@ -265,10 +271,18 @@ impl Temporal {
             })
             .map(|last| last.range + slope * (t - last.t))
             .filter(|r| r.is_finite() && *r > 0.0);
+        let held_range_m = self
+            .flight
+            .predicted_range(f64::from(t), &config.flight)
+            .filter(|r| {
+                config.flight.enabled && r.sd_m < f64::from(config.flight.hold_fraction) * r.range_m
+            })
+            .map(|r| r.range_m as f32);
         Prediction {
             t,
             nose_dir: self.nose_dir,
             range_m,
+            held_range_m,
         }
     }
 
@@ -301,6 +315,18 @@ impl Temporal {
                     let smoothed = self.smooth_range(t, r, config);
                     self.push_range(t, r, config);
                     (smoothed, None)
+                }
+                RangeSmoothing::MotionModel if observation.range_held => {
+                    // The image's scale was the flight's: the frame adds its sight alone, and
+                    // the window the flight's range.
+                    let sight = observation.sight?;
+                    let flown = self
+                        .flight
+                        .update_sight(f64::from(t), &sight, &config.flight)?;
+                    let range_m = flown.range.range_m as f32;
+                    self.push_range(t, range_m, config);
+                    flight_rate = Some(flown.rate_m_s);
+                    (range_m, Some(flown.range.sd_m as f32))
                 }
                 RangeSmoothing::MotionModel => {
                     self.push_range(t, r, config);

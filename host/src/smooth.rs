@@ -36,55 +36,52 @@ pub struct Recorded {
 }
 
 /// The smoothed results of the `recorded` frames (in time order) that have a pose and a filter
-/// step, each with its row index. Every step goes through the smoother, also those of frames
-/// without a pose (a sensor's range where the image gave none), so the backward pass runs
-/// through them.
+/// step (the range filter's or the flight filter's), each with its row index. Every step goes
+/// through its smoother, also those of frames without a pose (a sensor's range where the image
+/// gave none), so the backward pass runs through them.
 pub fn smoothed_results(pipeline: &Pipeline, recorded: &[Recorded]) -> Vec<(usize, FrameResult)> {
-    let stepped: Vec<&Recorded> = recorded.iter().filter(|r| r.step.is_some()).collect();
-    let mut steps: Vec<FilterStep> = stepped.iter().filter_map(|r| r.step).collect();
-    range_filter::smooth(&mut steps);
-    let mut flights: Vec<FlightStep> = stepped.iter().filter_map(|r| r.flight).collect();
-    flight_filter::smooth(&mut flights, &pipeline.config().temporal.flight);
-    // Each stepped frame's place among the flight steps, where it has one.
-    let mut next_flight = 0;
-    let flight_index: Vec<Option<usize>> = stepped
+    let stepped: Vec<&Recorded> = recorded
         .iter()
-        .map(|r| {
-            r.flight.map(|_| {
-                next_flight += 1;
-                next_flight - 1
-            })
-        })
+        .filter(|r| r.step.is_some() || r.flight.is_some())
         .collect();
+    let (mut steps, step_index) = gathered(stepped.iter().map(|r| r.step));
+    range_filter::smooth(&mut steps);
+    let (mut flights, flight_index) = gathered(stepped.iter().map(|r| r.flight));
+    flight_filter::smooth(&mut flights, &pipeline.config().temporal.flight);
     let sigmas = pipeline.config().temporal.trend_sigma;
     let positions: Vec<Position> = recorded.iter().filter_map(|r| r.position).collect();
     let world_config = &pipeline.config().world;
     stepped
         .iter()
-        .zip(&steps)
-        .zip(&flight_index)
-        .filter_map(|((r, step), flight)| Some((r, r.solved.as_ref()?, step, *flight)))
-        .map(|(r, solved, step, flight)| {
+        .zip(step_index.iter().zip(&flight_index))
+        .filter_map(|(r, (step, flight))| {
+            let step = step.and_then(|i| steps.get(i));
             let flight = flight
                 .and_then(|i| flights.get(i))
                 .map(FlightStep::estimate);
-            let (rate, rate_sd) =
-                flight.map_or(step.rate(), |f| (f.rate_m_s.0 as f32, f.rate_m_s.1 as f32));
+            // The flight's range and rate where it took the frame, else the range filter's.
+            let (range, rate) = match (flight, step) {
+                (Some(f), _) => (
+                    (f.range.range_m as f32, f.range.sd_m as f32),
+                    (f.rate_m_s.0 as f32, f.rate_m_s.1 as f32),
+                ),
+                (None, Some(step)) => {
+                    let range = step.range();
+                    ((range.range_m, range.sd_m), step.rate())
+                }
+                (None, None) => return None,
+            };
+            Some((r, r.solved.as_ref()?, range, rate))
+        })
+        .map(|(r, solved, (range_m, sd_m), (rate, rate_sd))| {
             let choice = YawChoice::of_rate(rate, rate_sd, sigmas, solved.estimate.choice.away);
-            let estimate = if solved.measurement.hypothesis.sensor_range_m.is_some() {
+            let estimate = if solved.measurement.hypothesis.sensor_range_m().is_some() {
                 // The sensor's range stands as given; only the side is decided again.
                 Estimate {
                     choice,
                     ..solved.estimate
                 }
             } else {
-                let (range_m, sd_m) = flight.map_or_else(
-                    || {
-                        let range = step.range();
-                        (range.range_m, range.sd_m)
-                    },
-                    |f| (f.range.range_m as f32, f.range.sd_m as f32),
-                );
                 Estimate {
                     range_m,
                     range_sd_m: Some(sd_m),
@@ -102,6 +99,20 @@ pub fn smoothed_results(pipeline: &Pipeline, recorded: &[Recorded]) -> Vec<(usiz
             (r.row, pipeline.resolve(&solved, &estimate))
         })
         .collect()
+}
+
+/// The items that are there, in order, and each slot's index among them.
+fn gathered<T>(slots: impl Iterator<Item = Option<T>>) -> (Vec<T>, Vec<Option<usize>>) {
+    let mut items = Vec::new();
+    let index = slots
+        .map(|slot| {
+            slot.map(|item| {
+                items.push(item);
+                items.len() - 1
+            })
+        })
+        .collect();
+    (items, index)
 }
 
 /// The velocity at `time_s` from the recorded `positions` around it, before and after: the

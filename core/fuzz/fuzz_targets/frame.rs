@@ -108,7 +108,7 @@ enum ConfigSpec {
         max_predicted_scatter: f32,
         /// The flight filter's float tunables in field order, its iterations, misses and whether
         /// it runs.
-        flight: ([f32; 12], u8, u8, bool),
+        flight: ([f32; 13], u8, u8, bool),
     },
 }
 
@@ -390,7 +390,8 @@ fn config(spec: &ConfigSpec) -> Config {
                     huber_sigmas: f[9],
                     sight_gate_sigmas: f[10],
                     max_misses: u32::from(misses),
-                    max_step_s: f[11],
+                    hold_fraction: f[11],
+                    max_step_s: f[12],
                     iterations: u32::from(iterations),
                 },
                 tz_smoothing_r,

@@ -168,7 +168,7 @@ impl Measurement {
     /// `GreyFitConfig::wide_body_sigmas`), else the
     /// match's; where it was given, the apparent diameter's.
     pub fn image_range_m(&self) -> Option<f32> {
-        if self.hypothesis.sensor_range_m.is_some() {
+        if self.hypothesis.fixed_range_m.is_some() {
             return self.hypothesis.image_range_m;
         }
         self.fitted
@@ -204,7 +204,7 @@ impl Measurement {
     pub fn lengths_averaged(&self) -> u8 {
         if self.fitted.is_none()
             && self.matched.is_some()
-            && self.hypothesis.sensor_range_m.is_none()
+            && self.hypothesis.fixed_range_m.is_none()
         {
             2
         } else {
@@ -319,7 +319,7 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
             polarity,
             origin: hypothesis.origin,
         };
-        let range = hypothesis.sensor_range_m;
+        let range = hypothesis.fixed_range_m;
         let first = self.table.and_then(|table| {
             pose::match_pose(
                 &input,
