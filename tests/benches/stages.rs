@@ -188,6 +188,8 @@ fn stages(c: &mut Criterion<ThreadCpuTime>) {
         });
     }
 
+    group.bench_function("flight_filter", flight_filter_update);
+
     // The whole frame with the closed form only, and with the table match where there is a table.
     let mut pipelines = vec![("frame", None)];
     pipelines.extend(fixture.table.map(|t| ("frame_table", Some(t))));
@@ -196,6 +198,41 @@ fn stages(c: &mut Criterion<ThreadCpuTime>) {
     }
 
     group.finish();
+}
+
+/// One frame of the flight filter ([`imade_core::flight_filter`]): a ballistic flight seen
+/// every 0.5 s from 1.2 km, the filter started on ten frames, then the eleventh taken (its sight
+/// and image range) by a copy each iteration.
+fn flight_filter_update(b: &mut criterion::Bencher<'_, ThreadCpuTime>) {
+    use imade_core::flight_filter::{FlightFilter, FlightFilterConfig, RangeReading, Sight};
+    let config = FlightFilterConfig::DEFAULT;
+    let station = [-900.0, -600.0, 2.0];
+    let frame = |k: u32| {
+        let t = 0.5 * f64::from(k);
+        let p = [80.0 * t, 100.0 * t, 500.0 + 60.0 * t - 4.903_325 * t * t];
+        let d: Vec<f64> = p.iter().zip(&station).map(|(p, s)| p - s).collect();
+        let range = d.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let sight = Sight {
+            station_enu_m: station,
+            dir_enu: [d[0] / range, d[1] / range, d[2] / range],
+            sd_rad: 1e-5,
+        };
+        let reading = RangeReading {
+            range_m: range * 1.02,
+            sd_m: 0.03 * range,
+        };
+        (t, sight, reading)
+    };
+    let mut started = FlightFilter::new();
+    for k in 0..10 {
+        let (t, sight, reading) = frame(k);
+        started.update(t, &sight, reading, &config);
+    }
+    let (t, sight, reading) = frame(10);
+    b.iter(|| {
+        let mut filter = black_box(started.clone());
+        black_box(filter.update(t, &sight, reading, &config))
+    });
 }
 
 criterion_group! {
