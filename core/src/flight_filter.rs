@@ -19,13 +19,19 @@
 //! are `|p - station| (1 + b)`. Without it the filter took a hundred frames of an outside
 //! renderer's image ranges, all 2-3 % long, for a hundred independent readings, and stayed
 //! 14 m/km off with a sigma of 3.5 (19 % of frames within two sigmas; with it, 2.2 m/km and
-//! 97 %): averaging frames cannot remove what they share, only gravity can. The first two frames start it (their positions at the
-//! image ranges, the velocity their difference); each later frame is carried to its time (RK4)
-//! and corrected by its two sight angles and its image range, relinearized
-//! [`FlightFilterConfig::iterations`] times (the sight's angles are a thousand times sharper
-//! than the range: one linearization at a range a few per cent off would leave their pull
-//! biased). An image range further than [`FlightFilterConfig::huber_sigmas`] from the
-//! prediction counts with the weight that puts it there (Huber).
+//! 97 %): averaging frames cannot remove what they share, only gravity can.
+//!
+//! The first two frames start it (their positions at the image ranges, the velocity their
+//! difference); each later frame is carried to its time (RK4) and corrected by its two sight
+//! angles and its image range, relinearized [`FlightFilterConfig::iterations`] times (the
+//! sight's angles are a thousand times sharper than the range: one linearization at a range a
+//! few per cent off would leave their pull biased). An image range further than
+//! [`FlightFilterConfig::huber_sigmas`] from the prediction counts with the weight that puts it
+//! there (Huber); a sight beyond [`FlightFilterConfig::sight_gate_sigmas`] is not this flight's
+//! and is left out. Where the range predicted for a frame is sure
+//! ([`FlightFilter::predicted_range`], [`FlightFilterConfig::hold_fraction`]), the pipeline
+//! holds the image's scale there and the frame gives its sight alone
+//! ([`FlightFilter::update_sight`]).
 //!
 //! The arithmetic is `f64`: positions of kilometres are resolved to millimetres, and IEEE
 //! rounding makes host and firmware agree bit for bit. A recorded clip's steps can be smoothed
