@@ -10,6 +10,7 @@
 //! | table match | [`crate::table_match`] | [`Measurement`] (and the shape prior) |
 //! | grey-level fit | [`crate::grey_fit`] | [`Measurement::fitted`] |
 //! | temporal estimate | [`crate::temporal`] | [`Estimate`]: range and yaw choice |
+//! | flight filter (in the temporal estimate: no range sensor, the mount's pointing) | [`crate::flight_filter`] | the range gravity scales, the yaw side; a sure range for the next frame's image stages to hold the scale at |
 //! | world frame (with the mount's pointing) | [`crate::world`] | [`Motion`]: the velocity, which may settle the yaw choice; [`FrameResult::world`] |
 
 use crate::camera::Camera;
