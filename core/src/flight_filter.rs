@@ -123,7 +123,7 @@ impl FlightFilterConfig {
         range_bias_psd: 1e-5,
         initial_velocity_sd_m_s: 2.0,
         initial_along_sd_m_s2: 5.0,
-        huber_sigmas: 3.0,
+        huber_sigmas: 2.0,
         sight_gate_sigmas: 6.0,
         max_misses: 3,
         hold_fraction: 0.005,
