@@ -387,8 +387,9 @@ impl<
         // Without a sensor, the flight's range where it is sure: the image stages hold the
         // scale there, as at a sensor's reading.
         let held_range_m = prediction
-            .held_range_m
-            .filter(|_| input.sensor_range_m.is_none());
+            .held_range
+            .filter(|_| input.sensor_range_m.is_none())
+            .map(|held| held.range_m as f32);
         let hypothesis = Hypothesis::solve(
             &silhouette,
             origin,

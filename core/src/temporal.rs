@@ -111,9 +111,9 @@ pub struct Prediction {
     /// The slant range expected at this frame from the recent ones (the last range in the
     /// window carried along the trend), m; None before any.
     pub range_m: Option<f32>,
-    /// The flight filter's range for this frame, m, where it is sure enough to hold the image's
-    /// scale at ([`FlightFilterConfig::hold_fraction`]).
-    pub held_range_m: Option<f32>,
+    /// The flight filter's range for this frame and its sigma, where it is sure enough to hold
+    /// the image's scale at ([`FlightFilterConfig::hold_fraction`]).
+    pub held_range: Option<RangeReading>,
 }
 
 /// One frame's observation for the temporal state.
@@ -129,7 +129,7 @@ pub struct Observation {
     /// mount's pointing.
     pub sight: Option<Sight>,
     /// Whether the image stages held the scale at the flight's range
-    /// ([`Prediction::held_range_m`]): the frame then gives the flight its sight alone.
+    /// ([`Prediction::held_range`]): the frame then gives the flight its sight alone.
     pub range_held: bool,
 }
 
@@ -271,18 +271,17 @@ impl Temporal {
             })
             .map(|last| last.range + slope * (t - last.t))
             .filter(|r| r.is_finite() && *r > 0.0);
-        let held_range_m = self
+        let held_range = self
             .flight
             .predicted_range(f64::from(t), &config.flight)
             .filter(|r| {
                 config.flight.enabled && r.sd_m < f64::from(config.flight.hold_fraction) * r.range_m
-            })
-            .map(|r| r.range_m as f32);
+            });
         Prediction {
             t,
             nose_dir: self.nose_dir,
             range_m,
-            held_range_m,
+            held_range,
         }
     }
 
@@ -318,15 +317,17 @@ impl Temporal {
                 }
                 RangeSmoothing::MotionModel if observation.range_held => {
                     // The image's scale was the flight's: the frame adds its sight alone, and
-                    // the window the flight's range.
-                    let sight = observation.sight?;
-                    let flown = self
-                        .flight
-                        .update_sight(f64::from(t), &sight, &config.flight)?;
-                    let range_m = flown.range.range_m as f32;
+                    // the window the flight's range. A sight the flight leaves out keeps the
+                    // range it was held at.
+                    let flown = observation.sight.and_then(|sight| {
+                        self.flight
+                            .update_sight(f64::from(t), &sight, &config.flight)
+                    });
+                    flight_rate = flown.map(|f| f.rate_m_s);
+                    let range = flown.map(|f| f.range).or(prediction.held_range)?;
+                    let range_m = range.range_m as f32;
                     self.push_range(t, range_m, config);
-                    flight_rate = Some(flown.rate_m_s);
-                    (range_m, Some(flown.range.sd_m as f32))
+                    (range_m, Some(range.sd_m as f32))
                 }
                 RangeSmoothing::MotionModel => {
                     self.push_range(t, r, config);
@@ -543,6 +544,78 @@ fn median(values: &mut [f32]) -> Option<f32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A ballistic flight's frame at `t` s seen from `station`: its true range and its line of
+    /// sight, turned `off` rad across (a detection that took something else).
+    fn flight_frame(station: [f64; 3], t: f64, off: f64) -> (f64, Sight) {
+        let p = [80.0 * t, 100.0 * t, 500.0 + 60.0 * t - 4.903_325 * t * t];
+        let d = [p[0] - station[0], p[1] - station[1], p[2] - station[2]];
+        let range = libm::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        let dir = [
+            d[0] / range + off * d[1] / range,
+            d[1] / range - off * d[0] / range,
+            d[2] / range,
+        ];
+        let norm = libm::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+        let sight = Sight {
+            station_enu_m: station,
+            dir_enu: [dir[0] / norm, dir[1] / norm, dir[2] / norm],
+            sd_rad: 1e-5,
+        };
+        (range, sight)
+    }
+
+    /// Once the flight is sure of its range the next frame's scale is held there; such a frame
+    /// keeps its pose even where the flight leaves its sight out (a detection that took
+    /// something else): its range is the one it was held at.
+    #[test]
+    fn a_held_frame_the_flight_leaves_out_keeps_its_range() {
+        // Held where sure to 1 % (image ranges 2 % apart reach the default's 0.5 % only late).
+        let config = TemporalConfig {
+            flight: FlightFilterConfig {
+                hold_fraction: 0.01,
+                ..FlightFilterConfig::DEFAULT
+            },
+            ..TemporalConfig::DEFAULT
+        };
+        let station = [-900.0, -600.0, 2.0];
+        let mut temporal = Temporal::new();
+        let observation = |range: f64, sight: Sight, held: bool| Observation {
+            image_range_m: Some(range as f32),
+            nose_dir: ImagePoint::new(1.0, 0.0),
+            scale: ImageScale::SHARP,
+            sight: Some(sight),
+            range_held: held,
+        };
+        let mut held = None;
+        for k in 0..40 {
+            let time_s = 0.5 * f64::from(k);
+            let prediction = temporal.predict(time_s, &config);
+            if let Some(range) = prediction.held_range {
+                held = Some((time_s, prediction, range));
+                break;
+            }
+            let (range, sight) = flight_frame(station, time_s, 0.0);
+            temporal.update(
+                &prediction,
+                None,
+                Some(observation(range, sight, false)),
+                &config,
+            );
+        }
+        let (time_s, prediction, range) = held.expect("the flight never became sure");
+        let (truth, off) = flight_frame(station, time_s, 1e-3);
+        assert!(libm::fabs(range.range_m - truth) < 2.5 * range.sd_m);
+        let estimate = temporal
+            .update(
+                &prediction,
+                None,
+                Some(observation(truth, off, true)),
+                &config,
+            )
+            .expect("the held frame lost its pose");
+        assert_eq!(estimate.range_m, range.range_m as f32);
+    }
 
     /// Eq. 5's weight compounds over the frames a clip skipped: r for frames one interval apart
     /// (or closer), 1 - 0.9^2 = 0.19 for two, 1 - 0.9^8 for eight; r = 1 stays 1.
