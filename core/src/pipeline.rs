@@ -277,8 +277,19 @@ impl<
         self.track.update(input.time_s, &target);
         let motion = input.mount.and_then(|mount| {
             let config = &self.config.world;
-            self.world
-                .motion(input.time_s, &result, mount, &self.station, config)
+            let motion = self
+                .world
+                .motion(input.time_s, &result, mount, &self.station, config)?;
+            // Without a sensor the positions scatter along the lines of sight: the flight
+            // filter's velocity, where it took the frame.
+            let flown = self
+                .temporal
+                .flight_step(prediction.t)
+                .map(|step| step.estimate().velocity_enu_m_s);
+            Some(Motion {
+                velocity_enu_m_s: motion.velocity_enu_m_s.or(flown),
+                ..motion
+            })
         });
         let mut solved = Solved {
             measurement,

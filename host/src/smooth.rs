@@ -71,9 +71,10 @@ pub fn smoothed_results(pipeline: &Pipeline, recorded: &[Recorded]) -> Vec<(usiz
                 }
                 (None, None) => return None,
             };
-            Some((r, r.solved.as_ref()?, range, rate))
+            let velocity = flight.map(|f| f.velocity_enu_m_s);
+            Some((r, r.solved.as_ref()?, range, rate, velocity))
         })
-        .map(|(r, solved, (range_m, sd_m), (rate, rate_sd))| {
+        .map(|(r, solved, (range_m, sd_m), (rate, rate_sd), flown)| {
             let choice = YawChoice::of_rate(rate, rate_sd, sigmas, solved.estimate.choice.away);
             let estimate = if solved.measurement.hypothesis.sensor_range_m().is_some() {
                 // The sensor's range stands as given; only the side is decided again.
@@ -88,11 +89,13 @@ pub fn smoothed_results(pipeline: &Pipeline, recorded: &[Recorded]) -> Vec<(usiz
                     choice,
                 }
             };
-            // The velocity from the positions before and after the frame.
+            // The velocity from the positions before and after the frame (a sensor's), else
+            // the smoothed flight's.
             let motion = solved.motion.map(|m| Motion {
                 velocity_enu_m_s: r
                     .position
-                    .and_then(|p| centred_velocity(&positions, p.time_s, world_config)),
+                    .and_then(|p| centred_velocity(&positions, p.time_s, world_config))
+                    .or(flown),
                 ..m
             });
             let solved = Solved { motion, ..*solved };
