@@ -330,12 +330,7 @@ impl FlightFilter {
                 if !matches!(within, Some(Ordering::Less | Ordering::Equal)) {
                     self.misses += 1;
                     if self.misses >= config.max_misses {
-                        *self = Self::new();
-                        self.first = Some(First {
-                            t,
-                            sight: *sight,
-                            range: range?,
-                        });
+                        self.restart_from(t, sight, range);
                     }
                     return None;
                 }
@@ -352,11 +347,7 @@ impl FlightFilter {
                 start(&first, t, sight, &range, config)
             }
             (None, None, Some(range)) => {
-                self.first = Some(First {
-                    t,
-                    sight: *sight,
-                    range,
-                });
+                self.restart_from(t, sight, Some(range));
                 return None;
             }
             _ => return None,
@@ -373,6 +364,17 @@ impl FlightFilter {
         self.last = Some(step);
         self.misses = 0;
         Some(estimate)
+    }
+
+    /// Forgets the flight and keeps the frame at `t` as the first of a new one (where it has a
+    /// range: a flight starts from image ranges).
+    fn restart_from(&mut self, t: f64, sight: &Sight, range: Option<RangeReading>) {
+        *self = Self::new();
+        self.first = range.map(|range| First {
+            t,
+            sight: *sight,
+            range,
+        });
     }
 }
 
@@ -561,21 +563,36 @@ fn across(dir: &Vector3<f64>) -> [Vector3<f64>; 2] {
     [horizontal, dir.cross(&horizontal)]
 }
 
-/// How far the predicted body origin lies from `sight`, in sigmas of the two angles
-/// (Mahalanobis, the prediction's covariance with the sight's); infinite where that covariance
-/// is singular.
-fn sight_distance(predicted: &Predicted, sight: &Sight) -> f64 {
-    let station = Vector3::from(sight.station_enu_m);
-    let offset = predicted.x.fixed_rows::<3>(0) - station;
+/// The angles at which the state `x` puts the body origin from `station` across a sight
+/// (its components along `across`, the unit vectors across the sight), and their Jacobian:
+/// `d(e . seen)/dp = (e - seen (e . seen)) / distance`.
+fn sight_angles(
+    x: &State,
+    station: &Vector3<f64>,
+    across: &[Vector3<f64>; 2],
+) -> (SVector<f64, 2>, SMatrix<f64, 2, STATE>) {
+    let offset = x.fixed_rows::<3>(0) - station;
     let distance = offset.norm();
     let seen = offset / distance;
     let mut h = SMatrix::<f64, 2, STATE>::zeros();
     let mut angles = SVector::<f64, 2>::zeros();
-    for (row, e) in across(&Vector3::from(sight.dir_enu)).iter().enumerate() {
+    for (row, e) in across.iter().enumerate() {
         angles[row] = e.dot(&seen);
         let d = (e - seen * e.dot(&seen)) / distance;
         h.fixed_view_mut::<1, 3>(row, 0).copy_from(&d.transpose());
     }
+    (angles, h)
+}
+
+/// How far the predicted body origin lies from `sight`, in sigmas of the two angles
+/// (Mahalanobis, the prediction's covariance with the sight's); infinite where that covariance
+/// is singular.
+fn sight_distance(predicted: &Predicted, sight: &Sight) -> f64 {
+    let (angles, h) = sight_angles(
+        &predicted.x,
+        &Vector3::from(sight.station_enu_m),
+        &across(&Vector3::from(sight.dir_enu)),
+    );
     let variance = sight.sd_rad * sight.sd_rad;
     let spread = h * predicted.p * h.transpose() + SMatrix::<f64, 2, 2>::identity() * variance;
     spread.try_inverse().map_or(f64::INFINITY, |inverse| {
@@ -596,8 +613,7 @@ fn correct(
     config: &FlightFilterConfig,
 ) -> (State, Covariance) {
     let station = Vector3::from(sight.station_enu_m);
-    let dir = Vector3::from(sight.dir_enu);
-    let [horizontal, up] = across(&dir);
+    let across = across(&Vector3::from(sight.dir_enu));
     let angle_variance = sight.sd_rad * sight.sd_rad;
     // The image range's variance, raised where it lies beyond `huber_sigmas` of the prediction.
     let (x0, p0) = (predicted.x, predicted.p);
@@ -623,23 +639,16 @@ fn correct(
     let mut h = SMatrix::<f64, MEASUREMENTS, STATE>::zeros();
     let mut gain = SMatrix::<f64, STATE, MEASUREMENTS>::zeros();
     for _ in 0..config.iterations.clamp(1, MAX_ITERATIONS) {
-        let offset = x.fixed_rows::<3>(0) - station;
-        let distance = offset.norm();
-        let seen = offset / distance;
+        let (angles, angle_rows) = sight_angles(&x, &station, &across);
         let (image_range, range_row) = image_range(&x, &station);
         // The predicted angles (the sight's components across the measured one) and range.
-        let values =
-            SVector::<f64, MEASUREMENTS>::from([horizontal.dot(&seen), up.dot(&seen), image_range]);
+        let values = SVector::<f64, MEASUREMENTS>::from([angles[0], angles[1], image_range]);
         let measured = SVector::<f64, MEASUREMENTS>::from([
             0.0,
             0.0,
             range.map_or(image_range, |r| r.range_m),
         ]);
-        // d(e . seen)/dp = (e - seen (e . seen)) / distance.
-        for (row, e) in [horizontal, up].iter().enumerate() {
-            let d = (e - seen * e.dot(&seen)) / distance;
-            h.fixed_view_mut::<1, 3>(row, 0).copy_from(&d.transpose());
-        }
+        h.fixed_view_mut::<2, STATE>(0, 0).copy_from(&angle_rows);
         if range.is_some() {
             h.set_row(2, &range_row);
         }

@@ -283,8 +283,7 @@ impl<
             // Without a sensor the positions scatter along the lines of sight: the flight
             // filter's velocity, where it took the frame.
             let flown = self
-                .temporal
-                .flight_step(prediction.t)
+                .last_flight_step()
                 .map(|step| step.estimate().velocity_enu_m_s);
             Some(Motion {
                 velocity_enu_m_s: motion.velocity_enu_m_s.or(flown),

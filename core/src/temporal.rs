@@ -363,19 +363,8 @@ impl Temporal {
             (None, None) => return None,
         };
         self.nose_dir = Some(observation.nose_dir);
-        let choice = match flight_rate {
-            // The flight's rate: the lines of sight and gravity tell it, not the image ranges.
-            Some((rate, sd)) => {
-                let fallback = self.last_away.unwrap_or(true);
-                let choice =
-                    YawChoice::of_rate(rate as f32, sd as f32, config.trend_sigma, fallback);
-                if choice.resolved {
-                    self.last_away = Some(choice.away);
-                }
-                choice
-            }
-            None => self.choose_yaw(t, config),
-        };
+        let flight_rate = flight_rate.map(|(rate, sd)| (rate as f32, sd as f32));
+        let choice = self.choose_yaw(t, flight_rate, config);
         Some(Estimate {
             range_m,
             range_sd_m,
@@ -506,12 +495,24 @@ impl Temporal {
     /// is significant, the motion model's range rate at the frame of time `t` chooses (the
     /// likelier side, resolved where the rate is significant: [`YawChoice::of_rate`]); without
     /// it, the last resolved choice stands (or "away", for a projectile flying off from the
-    /// launcher).
-    fn choose_yaw(&mut self, t: f32, config: &TemporalConfig) -> YawChoice {
+    /// launcher). Where the flight filter took the frame, its `flight_rate` (m/s and its sigma)
+    /// chooses instead of the trend: the lines of sight and gravity tell it, not the image
+    /// ranges.
+    fn choose_yaw(
+        &mut self,
+        t: f32,
+        flight_rate: Option<(f32, f32)>,
+        config: &TemporalConfig,
+    ) -> YawChoice {
         let shortest = config.min_trend_frames.max(3);
-        let decided = (shortest..=self.window.len())
-            .filter_map(|frames| self.recent_trend(frames))
-            .find(|tr| libm::fabsf(tr.slope) > config.trend_sigma * tr.stderr);
+        let decided = flight_rate
+            .is_none()
+            .then(|| {
+                (shortest..=self.window.len())
+                    .filter_map(|frames| self.recent_trend(frames))
+                    .find(|tr| libm::fabsf(tr.slope) > config.trend_sigma * tr.stderr)
+            })
+            .flatten();
         let choice = match decided {
             Some(tr) => YawChoice {
                 away: tr.slope > 0.0,
@@ -519,8 +520,10 @@ impl Temporal {
             },
             None => {
                 let fallback = self.last_away.unwrap_or(true);
-                // Without the filter's step the rate has no sign: the fallback stands.
-                let (rate, rate_sd) = self.range_step(t).map_or((0.0, 0.0), |step| step.rate());
+                // Without a filter's step the rate has no sign: the fallback stands.
+                let (rate, rate_sd) = flight_rate
+                    .or_else(|| self.range_step(t).map(|step| step.rate()))
+                    .unwrap_or((0.0, 0.0));
                 YawChoice::of_rate(rate, rate_sd, config.trend_sigma, fallback)
             }
         };
@@ -641,14 +644,14 @@ mod tests {
         let config = TemporalConfig::DEFAULT;
         for (rate, away) in [(90.0f32, true), (-90.0, false)] {
             let mut state = Temporal::new();
-            let mut choice = state.choose_yaw(0.0, &config);
+            let mut choice = state.choose_yaw(0.0, None, &config);
             assert!(!choice.resolved);
             for k in 0..12 {
                 let t = state.frame_time(100.0 + k as f64 / 30.0, &config);
                 // +-2 m of alternating noise on a linear trend.
                 let noise = if k % 2 == 0 { 2.0 } else { -2.0 };
                 state.push_range(t, 1500.0 + rate * t + noise, &config);
-                choice = state.choose_yaw(t, &config);
+                choice = state.choose_yaw(t, None, &config);
             }
             assert!(choice.resolved, "rate {rate}");
             assert_eq!(choice.away, away);
@@ -671,7 +674,7 @@ mod tests {
             let t = state.frame_time(f64::from(k as f32 * dt), &config);
             let noise = if k % 2 == 0 { 0.01 } else { -0.01 };
             state.push_range(t, 1000.0 + c * (t - t0) * (t - t0) + noise, &config);
-            let choice = state.choose_yaw(t, &config);
+            let choice = state.choose_yaw(t, None, &config);
             if k >= 4 && t <= t0 - 3.0 * dt {
                 assert!(choice.resolved && !choice.away, "frame {k}: {choice:?}");
             }
@@ -735,7 +738,7 @@ mod tests {
             let noise = [3.0, -1.0, 4.0, -4.0, 0.5][k % 5];
             state.push_range(t, 1500.0 + noise, &config);
         }
-        assert!(!state.choose_yaw(t, &config).resolved);
+        assert!(!state.choose_yaw(t, None, &config).resolved);
     }
 
     #[test]
