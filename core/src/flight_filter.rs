@@ -540,8 +540,8 @@ fn process_noise(x: &State, dt: f64, config: &FlightFilterConfig) -> Covariance 
     add(0, V, along * (jerk * dt4 / 8.0));
     add(V, 0, along * (jerk * dt4 / 8.0));
     add(V, V, along * (jerk * dt3 / 3.0));
-    for i in 0..3 {
-        let (pa, va) = (jerk * dt3 / 6.0 * dir[i], jerk * dt2 / 2.0 * dir[i]);
+    for (i, component) in dir.iter().enumerate() {
+        let (pa, va) = (jerk * dt3 / 6.0 * component, jerk * dt2 / 2.0 * component);
         q[(i, A)] += pa;
         q[(A, i)] += pa;
         q[(V + i, A)] += va;
@@ -574,11 +574,10 @@ fn sight_angles(
     let offset = x.fixed_rows::<3>(0) - station;
     let distance = offset.norm();
     let seen = offset / distance;
+    let angles = SVector::<f64, 2>::from(across.map(|e| e.dot(&seen)));
     let mut h = SMatrix::<f64, 2, STATE>::zeros();
-    let mut angles = SVector::<f64, 2>::zeros();
-    for (row, e) in across.iter().enumerate() {
-        angles[row] = e.dot(&seen);
-        let d = (e - seen * e.dot(&seen)) / distance;
+    for ((row, e), angle) in across.iter().enumerate().zip(angles.iter()) {
+        let d = (e - seen * *angle) / distance;
         h.fixed_view_mut::<1, 3>(row, 0).copy_from(&d.transpose());
     }
     (angles, h)
@@ -642,7 +641,7 @@ fn correct(
         let (angles, angle_rows) = sight_angles(&x, &station, &across);
         let (image_range, range_row) = image_range(&x, &station);
         // The predicted angles (the sight's components across the measured one) and range.
-        let values = SVector::<f64, MEASUREMENTS>::from([angles[0], angles[1], image_range]);
+        let values = SVector::<f64, MEASUREMENTS>::from([angles.x, angles.y, image_range]);
         let measured = SVector::<f64, MEASUREMENTS>::from([
             0.0,
             0.0,
