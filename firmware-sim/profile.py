@@ -1,0 +1,97 @@
+#!/usr/bin/env python3
+"""Reads QEMU's `-d exec,nochain,in_asm` log from stdin and writes, per function and per stage,
+the instructions executed (see firmware-sim/profile)."""
+import collections
+import re
+import subprocess
+import sys
+
+FILT = "arm-none-eabi-c++filt"
+
+STAGES = [
+    # (stage, prefixes of the demangled path), first match wins
+    ("detection: sky model", ("imade_core::segment::background",)),
+    ("detection: labeling", ("imade_core::segment::label", "imade_core::segment::Segmenter>::labeled_candidates")),
+    ("detection: bar search", ("imade_core::segment::bar",)),
+    ("detection: corridor, terrain, selection, mask", ("imade_core::segment",)),
+    ("silhouette: cross-section fits", ("imade_core::extremes::cross_profile",)),
+    ("silhouette: width profile", ("imade_core::extremes::axial_profile",)),
+    ("silhouette: ends, orientation", ("imade_core::extremes",)),
+    ("closed form", ("imade_core::closed_form",)),
+    ("table match: Lambertian section fit", ("imade_core::table_match::section",)),
+    ("table match: profile matching", ("imade_core::table_match::search",)),
+    ("table match: the rest", ("imade_core::table_match", "imade_core::lut")),
+    ("grey-level fit", ("imade_core::grey_fit",)),
+    ("least squares", ("imade_core::math::least_squares", "imade_core::math::accumulate")),
+    ("normal CDF", ("imade_core::math::normal",)),
+    ("flight filter", ("imade_core::flight_filter",)),
+    ("temporal, range filter, track", ("imade_core::temporal", "imade_core::range_filter", "imade_core::track")),
+    ("world frame", ("imade_core::world",)),
+    ("pipeline (stages inlined into process)", ("imade_core::pipeline",)),
+    ("uncertainty", ("imade_core::uncertainty",)),
+    ("memset, memcpy", ("memset", "memcpy", "memclr", "memmove", "__aeabi_mem")),
+    ("soft f64 and libm", ("__aeabi_d", "__adddf3", "__muldf3", "__divdf3", "__subdf3", "compiler_builtins", "libm")),
+    ("nalgebra", ("nalgebra",)),
+    ("the model file, validated once at start", ("imade_core::model",)),
+    ("pipeline code inlined into the firmware's `process`", ("imade_firmware::process",)),
+    ("firmware I/O and start-up (outside the per-frame count)",
+     ("imade_firmware", "imade_pack", "semihosting", "defmt", "cortex_m", "core::fmt", "core::num::imp::flt2dec", "Reset")),
+]
+
+
+def demangled(symbols):
+    """The Rust names of `symbols` (binutils' c++filt reads v0 mangling), crate hashes dropped."""
+    text = subprocess.run([FILT], input="\n".join(symbols), capture_output=True, text=True,
+                          check=True).stdout
+    return [re.sub(r"\[[0-9a-f]+\]|<(\d+: usize(, )?)+>", "", name) for name in text.splitlines()]
+
+
+def stage_of(path):
+    plain = path.lstrip("<")  # `<Type as Trait>::f` is the type's
+    for stage, prefixes in STAGES:
+        if plain.startswith(prefixes):
+            return stage
+    return "other"
+
+
+def main():
+    executed = collections.Counter()  # block start address -> times executed
+    size = {}  # block start address -> instructions in the block
+    symbol = {}
+    block, count = None, 0
+    for line in sys.stdin.buffer:
+        if line.startswith(b"Trace"):
+            fields = line.split(b"/", 2)
+            executed[fields[1]] += 1
+        elif line.startswith(b"0x"):
+            if block is None:
+                block = line[2:10]
+            count += 1
+        elif line.startswith(b"IN:"):
+            block, count = None, 0
+            name = line[3:].strip()
+        elif block is not None and not line.strip():
+            size[block] = count
+            symbol[block] = name
+            block = None
+    raw = collections.Counter()
+    for address, times in executed.items():
+        raw[symbol.get(address, b"?").decode()] += times * size.get(address, 0)
+    per_function = collections.Counter()
+    for function, n in zip(demangled(list(raw)), raw.values()):
+        per_function[function] += n
+    per_stage = collections.Counter()
+    for function, n in per_function.items():
+        per_stage[stage_of(function)] += n
+    total = sum(per_function.values())
+    frames = int(sys.argv[1]) if len(sys.argv) > 1 else 1
+    print(f"instructions executed: {total} over {frames} frames, {total / frames:,.0f} a frame\n")
+    print("| stage | instructions a frame | share |\n| --- | ---: | ---: |")
+    for stage, n in per_stage.most_common():
+        print(f"| {stage} | {n / frames:,.0f} | {100 * n / total:.1f} % |")
+    print("\n| function | instructions a frame | share |\n| --- | ---: | ---: |")
+    for function, n in per_function.most_common(40):
+        print(f"| `{function}` | {n / frames:,.0f} | {100 * n / total:.1f} % |")
+
+
+main()
