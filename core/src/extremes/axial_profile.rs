@@ -57,12 +57,13 @@ impl WidthProfile {
         let along = (start - bin, start + (bins as f32 + 1.0) * bin);
         for y in y_lo..y_hi {
             let (x0, x1) = row_span(axis.centre, axis.dir, y, along, band, (x_lo, x_hi));
+            let sky = background.row(y);
             chip.for_each_in_span(y, x0, x1, |x, v| {
                 let (along, across) = axis.local(x as f32, y as f32);
                 if libm::fabsf(across) > band {
                     return;
                 }
-                let value = sign * (f32::from(v) - background.at(x as f32, y as f32));
+                let value = sign * (f32::from(v) - sky.at(x));
                 let (profile, value) = if value < cutoff {
                     (&mut opposite, -value)
                 } else {

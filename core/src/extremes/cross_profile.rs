@@ -128,6 +128,7 @@ pub fn bin(
             half_width,
             (x_lo, x_hi),
         );
+        let sky = background.row(y);
         chip.for_each_in_span(y, x0, x1, |x, v| {
             let (along, across) = shape.line().local(x as f32, y as f32);
             if along < stretch.t0 || along >= stretch.t1 || libm::fabsf(across) >= half_width {
@@ -135,7 +136,7 @@ pub fn bin(
             }
             let i = ((across + half_width) / bin_width) as usize;
             if let (Some(s), Some(c)) = (binned.sum.get_mut(i), binned.count.get_mut(i)) {
-                *s += sign * (f32::from(v) - background.at(x as f32, y as f32));
+                *s += sign * (f32::from(v) - sky.at(x));
                 *c = c.saturating_add(1);
                 binned.pixels += 1;
             }

@@ -357,11 +357,28 @@ impl Background {
 
     /// The tiles' background at chip pixel (x, y), grey levels (bilinear between tile centres).
     fn tiles_at(&self, x: f32, y: f32) -> f32 {
-        let (x0, x1, wx) = self.columns.weights(x, self.tiles_x, self.width);
-        let (y0, y1, wy) = self.rows.weights(y, self.tiles_y, self.height);
+        let column = self.columns.weights(x, self.tiles_x, self.width);
+        self.bilinear(column, self.rows.weights(y, self.tiles_y, self.height))
+    }
+
+    /// The tiles' levels blended between the tiles and weights of a column and a row
+    /// ([`axis_weights`]).
+    #[inline]
+    fn bilinear(&self, column: (usize, usize, f32), row: (usize, usize, f32)) -> f32 {
+        let ((x0, x1, wx), (y0, y1, wy)) = (column, row);
         let top = self.level(x0, y0) * (1.0 - wx) + self.level(x1, y0) * wx;
         let bottom = self.level(x0, y1) * (1.0 - wx) + self.level(x1, y1) * wx;
         top * (1.0 - wy) + bottom * wy
+    }
+
+    /// The background along chip row `y`, read pixel by pixel ([`SkyRow::at`]) as
+    /// [`Background::at`] reads it, bit for bit, with the row's interpolation weights found once.
+    pub fn row(&self, y: usize) -> SkyRow<'_> {
+        SkyRow {
+            background: self,
+            y,
+            weights: self.rows.weights(y as f32, self.tiles_y, self.height),
+        }
     }
 
     /// Writes the background of row `y`, columns `x_start..x_start + out.len()`, into `out`.
@@ -465,6 +482,34 @@ impl Background {
         }
         let diff_sigma = libm::sqrtf(sum / (count as f32 * 0.9955));
         (diff_sigma / core::f32::consts::SQRT_2).max(MIN_SIGMA)
+    }
+}
+
+/// The background along one chip row ([`Background::row`]).
+pub struct SkyRow<'a> {
+    background: &'a Background,
+    y: usize,
+    /// The row's tiles and the second one's weight ([`axis_weights`]).
+    weights: (usize, usize, f32),
+}
+
+impl SkyRow<'_> {
+    /// Background at column `x` of the row, grey levels: [`Background::at`] at (`x`, `y`).
+    #[inline]
+    pub fn at(&self, x: usize) -> f32 {
+        let background = self.background;
+        if let Some(level) = background
+            .corridor
+            .as_ref()
+            .and_then(|c| c.at(x as f32, self.y as f32))
+        {
+            return level;
+        }
+        let column = background
+            .columns
+            .get(x)
+            .unwrap_or_else(|| axis_weights(x as f32, background.tiles_x, background.width));
+        background.bilinear(column, self.weights)
     }
 }
 
@@ -742,6 +787,9 @@ mod tests {
                         let bottom = bg.level(x0, y1) * (1.0 - wx) + bg.level(x1, y1) * wx;
                         let direct = top * (1.0 - wy) + bottom * wy;
                         assert_eq!(bg.at(xf, y as f32).to_bits(), direct.to_bits());
+                        if dx == 0.0 {
+                            assert_eq!(bg.row(y).at(x).to_bits(), direct.to_bits());
+                        }
                     }
                 }
             }

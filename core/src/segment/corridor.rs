@@ -383,14 +383,14 @@ mod tests {
         assert!(background.follow_corridor(&chip, &shape, 0.25 * 10.0));
         assert!(background.follows_corridor());
         assert!((background.at(63.5, 64.0) - 80.0).abs() < 1.0);
-        // The labeler's rows read the same sky as single pixels do.
+        // The labeler's rows and the profiles' row reads see the same sky as single pixels do.
         let mut row = [0.0f32; SIDE];
         background.fill_row(64, 0, &mut row);
+        let read = background.row(64);
         for (x, level) in row.iter().enumerate() {
-            assert!(
-                (level - background.at(x as f32, 64.0)).abs() < 1e-3,
-                "x {x}"
-            );
+            let single = background.at(x as f32, 64.0);
+            assert!((level - single).abs() < 1e-3, "x {x}");
+            assert_eq!(read.at(x).to_bits(), single.to_bits(), "x {x}");
         }
         assert_eq!(background.at(63.5, 10.0), tiles_far(&chip));
         // On a clean sky the tiles stay.

@@ -1066,8 +1066,9 @@ impl<
     /// Adds the run `x0..=x1` of row `y` to `moments`, with its residuals against the sky.
     fn add_mask_run(&self, chip: &ChipView, moments: &mut Moments, y: usize, x0: usize, x1: usize) {
         let (mut residual, mut value) = (0.0f32, 0u64);
+        let sky = self.background.row(y);
         chip.for_each_in_span(y, x0, x1 + 1, |x, v| {
-            residual += f32::from(v) - self.background.at(x as f32, y as f32);
+            residual += f32::from(v) - sky.at(x);
             value += u64::from(v);
         });
         moments.add_run(y as u16, x0 as u16, x1 as u16, residual, value);
