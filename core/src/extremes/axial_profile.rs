@@ -73,16 +73,25 @@ impl WidthProfile {
                 if position < -1.0 || position >= bins as f32 {
                     return;
                 }
-                let lower = libm::floorf(position);
+                // Shared linearly by the bins either side: bin `lower` (-1 before the first:
+                // none) and the next (`bins` past the last: none). The floor by truncation,
+                // exact for these values and cheaper on the M4F than `libm::floorf`.
+                let lower = if position < 0.0 {
+                    -1.0
+                } else {
+                    position as usize as f32
+                };
                 let frac = position - lower;
-                let i = lower as isize;
-                for (index, weight) in [(i, 1.0 - frac), (i + 1, frac)] {
-                    if index >= 0
-                        && (index as usize) < bins
-                        && let Some(slot) = profile.get_mut(index as usize)
-                    {
-                        *slot += value * weight * scale;
-                    }
+                let next = (lower + 1.0) as usize;
+                if next >= 1
+                    && let Some(slot) = profile.get_mut(next - 1)
+                {
+                    *slot += value * (1.0 - frac) * scale;
+                }
+                if next < bins
+                    && let Some(slot) = profile.get_mut(next)
+                {
+                    *slot += value * frac * scale;
                 }
             });
         }
