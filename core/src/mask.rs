@@ -49,10 +49,10 @@ impl<const WORDS: usize> BitMask<WORDS> {
         if words_per_row.checked_mul(height).is_none_or(|n| n > WORDS) {
             return Err(MaskTooLarge);
         }
+        self.clear();
         self.width = width;
         self.height = height;
         self.words_per_row = words_per_row;
-        self.words.iter_mut().for_each(|w| *w = 0);
         Ok(())
     }
 
@@ -109,15 +109,22 @@ impl<const WORDS: usize> BitMask<WORDS> {
 
     /// Number of set bits.
     pub fn count(&self) -> usize {
-        let used = self.words_per_row * self.height;
         self.words
-            .get(..used)
+            .get(..self.used_words())
             .map_or(0, |w| w.iter().map(|w| w.count_ones() as usize).sum())
     }
 
-    /// Clears every bit, keeping the size.
+    /// Clears every bit, keeping the size. Only the words of the current size are written: a
+    /// bit is only ever set inside it, and [`BitMask::reset`] clears before it resizes, so the
+    /// words beyond stay zero (a 256 x 256 chip's mask clears 8 KiB, not the capacity's 32).
     pub fn clear(&mut self) {
-        self.words.iter_mut().for_each(|w| *w = 0);
+        let used = self.used_words();
+        self.words.iter_mut().take(used).for_each(|w| *w = 0);
+    }
+
+    /// The words that hold the mask's rows.
+    fn used_words(&self) -> usize {
+        self.words_per_row * self.height
     }
 }
 
@@ -158,5 +165,29 @@ impl<const WORDS: usize> DrawTarget for BitMask<WORDS> {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_mask_resized_smaller_then_larger_has_no_stale_bits() {
+        let mut mask: BitMask<64> = BitMask::new();
+        mask.reset(64, 32).unwrap();
+        mask.set_run(31, 0, 63);
+        mask.set(5, 3, true);
+        assert_eq!(mask.count(), 65);
+        mask.reset(40, 8).unwrap();
+        assert_eq!(mask.count(), 0);
+        mask.set(39, 7, true);
+        mask.reset(64, 32).unwrap();
+        assert_eq!(mask.count(), 0);
+        assert!(!mask.get(63, 31) && !mask.get(5, 3) && !mask.get(39, 7));
+        mask.set(1, 1, true);
+        mask.clear();
+        assert_eq!((mask.count(), mask.width(), mask.height()), (0, 64, 32));
+        assert_eq!(mask.reset(65, 32), Err(MaskTooLarge));
     }
 }
