@@ -46,7 +46,6 @@ pub struct Background {
     columns: AxisTable,
     rows: AxisTable,
     sigma: f32,
-    samples: [f32; NOISE_SAMPLES],
     /// The sky measured along the body, where the tiles do not follow it ([`corridor`]).
     ///
     /// [`corridor`]: crate::segment::corridor
@@ -132,7 +131,6 @@ impl Background {
             columns: AxisTable::new(),
             rows: AxisTable::new(),
             sigma: MIN_SIGMA,
-            samples: [0.0; NOISE_SAMPLES],
             corridor: None,
         }
     }
@@ -442,7 +440,7 @@ impl Background {
         fill(after(last), end, (level(last), 0.0, 0.0));
     }
 
-    fn noise_sigma_of(&mut self, chip: &ChipView) -> f32 {
+    fn noise_sigma_of(&self, chip: &ChipView) -> f32 {
         let (w, h) = (chip.width(), chip.height());
         if w < 2 {
             return MIN_SIGMA;
@@ -450,17 +448,19 @@ impl Background {
         // A regular grid of about NOISE_SAMPLES horizontal neighbour differences.
         let cells = ((w - 1) * h).max(1);
         let step = libm::sqrtf((cells / NOISE_SAMPLES) as f32).max(1.0) as usize;
+        // Scratch for this call only: kept in the model, it weighed on the pipeline all along.
+        let mut samples = [0.0f32; NOISE_SAMPLES];
         let mut n = 0usize;
         'rows: for y in (0..h).step_by(step.max(1)) {
             for x in (0..w - 1).step_by(step.max(1)) {
-                let Some(slot) = self.samples.get_mut(n) else {
+                let Some(slot) = samples.get_mut(n) else {
                     break 'rows;
                 };
                 *slot = (f32::from(chip.get(x + 1, y)) - f32::from(chip.get(x, y))).abs();
                 n += 1;
             }
         }
-        let Some(samples) = self.samples.get_mut(..n) else {
+        let Some(samples) = samples.get_mut(..n) else {
             return MIN_SIGMA;
         };
         if samples.is_empty() {
