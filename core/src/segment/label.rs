@@ -14,6 +14,10 @@ use crate::point::ImagePoint;
 /// The largest box of [`Labeler::label_box`], px.
 pub const MAX_BOX_PX: usize = 5;
 
+/// The residuals [`Labeler::label_box`] holds for its box's rows: [`MAX_BOX_PX`] rows of a
+/// chip half the largest side wide (5 KiB of stack).
+const HELD_FLOATS: usize = MAX_BOX_PX * MAX_CHIP_SIDE / 2;
+
 /// The background-subtracted values of row `y` from column `x_start`, into `out` (its length),
 /// each also handed to `each` with its index in the row (in the same pass: the common case's
 /// classification costs no second loop).
@@ -295,38 +299,57 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
             usize::from(region.y0),
             usize::from(region.y1).min(chip.height()),
         );
-        let mut residual_row = [0.0f32; MAX_CHIP_SIDE];
+        // The residuals of the rows the box spans, each row computed once, in slot `r % side`
+        // of `held`, where they fit (a chip up to `HELD_FLOATS / MAX_BOX_PX` px wide); else
+        // every row again for each box it is in, in slot 0.
+        let side = 2 * half + 1;
+        let ring = half > 0 && side * width <= HELD_FLOATS;
+        let mut held = [0.0f32; HELD_FLOATS];
         let mut box_row = [0.0f32; MAX_CHIP_SIDE];
         let mut class_row = [0i8; MAX_CHIP_SIDE];
-        let (Some(residuals), Some(boxed), Some(classes)) = (
-            residual_row.get_mut(..width),
-            box_row.get_mut(..width),
-            class_row.get_mut(..width),
-        ) else {
+        let (Some(boxed), Some(classes)) = (box_row.get_mut(..width), class_row.get_mut(..width))
+        else {
             return Ok(());
         };
+        let slot_of = |r: usize| if ring { (r % side) * width } else { 0 };
+        let mut computed = y_start; // with the ring: the rows before this are in it
         let mut prev = 0..0;
         for y in y_start..y_end {
             if half == 0 {
+                let Some(residuals) = held.get_mut(..width) else {
+                    return Ok(());
+                };
                 residuals_of_row(chip, background, y, x_start, residuals, |i, r| {
                     if let Some(c) = classes.get_mut(i) {
                         *c = classify(r);
                     }
                 });
             } else {
-                // The column sums over the box's rows, then a running sum across the columns.
-                boxed.fill(0.0);
+                // The column sums over the box's rows (in order, from zero), then a running
+                // sum across the columns.
                 let rows = y.saturating_sub(half).max(y_start)..(y + half + 1).min(y_end);
                 let n_rows = rows.len().max(1) as f32;
-                for r in rows {
-                    residuals_of_row(chip, background, r, x_start, residuals, |_, _| {});
+                boxed.fill(0.0);
+                for r in rows.clone() {
+                    let Some(residuals) = held.get_mut(slot_of(r)..slot_of(r) + width) else {
+                        return Ok(());
+                    };
+                    if !ring || r >= computed {
+                        residuals_of_row(chip, background, r, x_start, residuals, |_, _| {});
+                    }
                     for (b, v) in boxed.iter_mut().zip(residuals.iter()) {
                         *b += v;
                     }
                 }
+                computed = rows.end;
                 box_across(boxed, half, n_rows, classes, &classify);
-                residuals_of_row(chip, background, y, x_start, residuals, |_, _| {});
+                if !ring && let Some(residuals) = held.get_mut(..width) {
+                    residuals_of_row(chip, background, y, x_start, residuals, |_, _| {});
+                }
             }
+            let Some(residuals) = held.get(slot_of(y)..slot_of(y) + width) else {
+                return Ok(());
+            };
             prev = self.push_row(chip, y, x_start, classes, residuals, prev)?;
         }
         self.resolve();
@@ -567,6 +590,47 @@ mod tests {
         assert_eq!(big.len(), 1, "one component on the box mean: {big:?}");
         // The bar has 5 x 76 = 380 px; the box mean reaches a pixel or so beyond its edges.
         assert!((300..=620).contains(&big[0]), "{big:?}");
+    }
+
+    #[test]
+    fn box_rows_held_or_computed_again_label_alike() {
+        // 5 rows of 200 px fit the held residuals, of 320 px do not: the bar far from either
+        // region's right edge must come out the same, bit for bit.
+        const W: usize = 320;
+        let h = 48usize;
+        let sigma = 8.0f32;
+        let mut data = [0u8; W * 48];
+        let mut state = 987_654_321u32;
+        for (i, v) in data.iter_mut().enumerate() {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            let u = (state >> 8) as f32 / (1u32 << 24) as f32;
+            let (x, y) = (i % W, i / W);
+            let bar = (22..27).contains(&y) && (10..86).contains(&x);
+            let value =
+                100.0 + (2.0 * u - 1.0) * 1.732 * sigma + if bar { 2.0 * sigma } else { 0.0 };
+            *v = value as u8;
+        }
+        let chip = ChipView::gray8(&data, W, h, W, 0, 0).unwrap();
+        let mut bg = Background::new();
+        bg.estimate(&chip);
+        let bar = |x1: u16| {
+            let region = Rect {
+                x0: 0,
+                y0: 0,
+                x1,
+                y1: h as u16,
+            };
+            let mut l = Labeler::<4096, 1024>::new();
+            l.label_box(&chip, &bg, region, 5, |r| i8::from(r > sigma))
+                .unwrap();
+            l.components().map(|(_, m)| *m).max_by_key(|m| m.n).unwrap()
+        };
+        const { assert!(5 * 200 <= HELD_FLOATS && 5 * W > HELD_FLOATS) };
+        let (held, again) = (bar(200), bar(W as u16));
+        assert!(held.n >= 300, "{held:?}");
+        assert_eq!(held, again);
     }
 
     #[test]
