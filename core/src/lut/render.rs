@@ -157,12 +157,21 @@ pub fn fill_triangle_by_centres<D: DrawTarget<Color = BinaryColor>>(
     Ok(())
 }
 
-/// A point of the body, `x` m along the axis from the origin, `r` m from it at fin angle `psi`
-/// rad, in the silhouette frame (m).
-fn project(view_sin_cos: (f32, f32), x: f32, r: f32, psi: f32) -> (f32, f32) {
+/// A point of the body, `x` m along the axis from the origin, `r` m from it at the angle around
+/// it whose sine and cosine are `psi_sin_cos`, in the silhouette frame (m).
+fn project(view_sin_cos: (f32, f32), x: f32, r: f32, psi_sin_cos: (f32, f32)) -> (f32, f32) {
     let (sin_b, cos_b) = view_sin_cos;
-    (x * cos_b - r * libm::sinf(psi) * sin_b, r * libm::cosf(psi))
+    let (sin_psi, cos_psi) = psi_sin_cos;
+    (x * cos_b - r * sin_psi * sin_b, r * cos_psi)
 }
+
+/// The sine and cosine of angle `psi`, rad.
+fn sin_cos(psi: f32) -> (f32, f32) {
+    (libm::sinf(psi), libm::cosf(psi))
+}
+
+/// The sine and cosine of angle zero (exact).
+const ZERO_ANGLE: (f32, f32) = (0.0, 1.0);
 
 /// Calls `f` with each triangle of the silhouette of `model` seen at `view`, in the silhouette
 /// frame (m): the ellipse of every profile station's cross-section, the quads between
@@ -171,27 +180,34 @@ pub fn for_each_triangle(model: &ProjectileModel, view: &View, mut f: impl FnMut
     let beta = view.tilt_deg * RAD;
     let sc = (libm::sinf(beta), libm::cosf(beta));
     let half = 0.5 * model.length_m;
+    // The ellipses' vertex angles around the axis, their sines and cosines found once (they are
+    // the same at every station; on the M4F, libm's sinf and cosf run in software f64).
+    let mut around = [ZERO_ANGLE; ELLIPSE_VERTICES + 1];
+    let ellipses = sc.0 > 1e-4; // seen broadside, a cross-section is a line
+    if ellipses {
+        for (k, slot) in around.iter_mut().enumerate() {
+            *slot = sin_cos(core::f32::consts::TAU * k as f32 / ELLIPSE_VERTICES as f32);
+        }
+    }
     // The body of revolution: its profile's stations from the tip (s = 0) to the base (s = L).
     let mut previous: Option<(f32, f32)> = None;
     for i in 0..model.stations() {
         let (s, r) = model.station(i);
         let x = half - s;
-        let centre = project(sc, x, 0.0, 0.0);
+        let centre = project(sc, x, 0.0, ZERO_ANGLE);
         // The ellipse of this cross-section, as a triangle fan.
-        if r > 0.0 && sc.0 > 1e-4 {
-            let vertex = |k: usize| {
-                let psi = core::f32::consts::TAU * k as f32 / ELLIPSE_VERTICES as f32;
-                project(sc, x, r, psi)
-            };
-            for k in 0..ELLIPSE_VERTICES {
-                f([centre, vertex(k), vertex(k + 1)]);
+        if r > 0.0 && ellipses {
+            for pair in around.windows(2) {
+                if let [from, to] = pair {
+                    f([centre, project(sc, x, r, *from), project(sc, x, r, *to)]);
+                }
             }
         }
         if let Some((px, pr)) = previous {
-            let a = project(sc, px, pr, 0.0);
-            let b = project(sc, x, r, 0.0);
-            let c = project(sc, x, -r, 0.0);
-            let d = project(sc, px, -pr, 0.0);
+            let a = project(sc, px, pr, ZERO_ANGLE);
+            let b = project(sc, x, r, ZERO_ANGLE);
+            let c = project(sc, x, -r, ZERO_ANGLE);
+            let d = project(sc, px, -pr, ZERO_ANGLE);
             f([a, b, c]);
             f([a, c, d]);
         }
@@ -203,8 +219,10 @@ pub fn for_each_triangle(model: &ProjectileModel, view: &View, mut f: impl FnMut
     let (tip_le, tip_te) = fins.tip_s;
     let root_radius = |s: f32| model.radius_at(s);
     for k in 0..fins.count {
-        let psi = (view.roll_deg + fins.first_roll_deg) * RAD
-            + core::f32::consts::TAU * f32::from(k) / f32::from(fins.count);
+        let psi = sin_cos(
+            (view.roll_deg + fins.first_roll_deg) * RAD
+                + core::f32::consts::TAU * f32::from(k) / f32::from(fins.count),
+        );
         let a = project(sc, half - root_te, root_radius(root_te), psi);
         let b = project(sc, half - root_le, root_radius(root_le), psi);
         let c = project(sc, half - tip_le, fins.tip_radius_m, psi);
