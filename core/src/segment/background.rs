@@ -106,10 +106,18 @@ impl AxisTable {
     #[inline]
     fn weights(&self, p: f32, tiles: usize, size: usize) -> (usize, usize, f32) {
         let pixel = p as usize;
-        (pixel as f32 == p)
-            .then(|| self.get(pixel))
-            .flatten()
-            .unwrap_or_else(|| axis_weights(p, tiles, size))
+        if pixel as f32 == p {
+            self.at_pixel(pixel, tiles, size)
+        } else {
+            axis_weights(p, tiles, size)
+        }
+    }
+
+    /// The weights at pixel `p`: from the table where it has it, else computed.
+    #[inline]
+    fn at_pixel(&self, p: usize, tiles: usize, size: usize) -> (usize, usize, f32) {
+        self.get(p)
+            .unwrap_or_else(|| axis_weights(p as f32, tiles, size))
     }
 }
 
@@ -347,10 +355,14 @@ impl Background {
     /// Background at chip pixel (x, y), grey levels: the corridor's where it has one there, else
     /// bilinear between tile centres.
     pub fn at(&self, x: f32, y: f32) -> f32 {
-        if let Some(level) = self.corridor.as_ref().and_then(|c| c.at(x, y)) {
-            return level;
-        }
-        self.tiles_at(x, y)
+        self.corridor_at(x, y)
+            .unwrap_or_else(|| self.tiles_at(x, y))
+    }
+
+    /// The corridor's sky at chip point (x, y), where it has one there.
+    #[inline]
+    fn corridor_at(&self, x: f32, y: f32) -> Option<f32> {
+        self.corridor.as_ref().and_then(|c| c.at(x, y))
     }
 
     /// The tiles' background at chip pixel (x, y), grey levels (bilinear between tile centres).
@@ -498,18 +510,14 @@ impl SkyRow<'_> {
     #[inline]
     pub fn at(&self, x: usize) -> f32 {
         let background = self.background;
-        if let Some(level) = background
-            .corridor
-            .as_ref()
-            .and_then(|c| c.at(x as f32, self.y as f32))
-        {
-            return level;
-        }
-        let column = background
-            .columns
-            .get(x)
-            .unwrap_or_else(|| axis_weights(x as f32, background.tiles_x, background.width));
-        background.bilinear(column, self.weights)
+        background
+            .corridor_at(x as f32, self.y as f32)
+            .unwrap_or_else(|| {
+                let column = background
+                    .columns
+                    .at_pixel(x, background.tiles_x, background.width);
+                background.bilinear(column, self.weights)
+            })
     }
 }
 
