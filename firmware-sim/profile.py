@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Reads QEMU's `-d exec,nochain,in_asm` log from stdin and writes, per function and per stage,
-the instructions executed (see firmware-sim/profile)."""
+the instructions executed (see firmware-sim/profile); given a second argument, the hottest blocks
+into that file."""
 import collections
 import re
 import subprocess
@@ -39,6 +40,9 @@ STAGES = [
 ]
 
 
+MEMORY_ROUTINE = re.compile(rb"mem(set|cpy|clr|move)")
+
+
 def demangled(symbols):
     """The Rust names of `symbols` (binutils' c++filt reads v0 mangling), crate hashes dropped."""
     text = subprocess.run([FILT], input="\n".join(symbols), capture_output=True, text=True,
@@ -58,11 +62,20 @@ def main():
     executed = collections.Counter()  # block start address -> times executed
     size = {}  # block start address -> instructions in the block
     symbol = {}
+    # The blocks of memset/memcpy and their kin, and their instructions per calling block: the
+    # last block executed outside them.
+    clearing = set()
+    cleared_for = collections.Counter()
+    caller = b"?"
     block, count = None, 0
     for line in sys.stdin.buffer:
         if line.startswith(b"Trace"):
-            fields = line.split(b"/", 2)
-            executed[fields[1]] += 1
+            address = line.split(b"/", 2)[1]
+            executed[address] += 1
+            if address in clearing:
+                cleared_for[caller] += size[address]
+            else:
+                caller = address
         elif line.startswith(b"0x"):
             if block is None:
                 block = line[2:10]
@@ -73,6 +86,8 @@ def main():
         elif block is not None and not line.strip():
             size[block] = count
             symbol[block] = name
+            if MEMORY_ROUTINE.search(name):
+                clearing.add(block)
             block = None
     raw = collections.Counter()
     for address, times in executed.items():
@@ -92,6 +107,30 @@ def main():
     print("\n| function | instructions a frame | share |\n| --- | ---: | ---: |")
     for function, n in per_function.most_common(40):
         print(f"| `{function}` | {n / frames:,.0f} | {100 * n / total:.1f} % |")
+    by_caller = collections.Counter()
+    callers = list(cleared_for)
+    names = demangled([symbol.get(a, b"?").decode() for a in callers])
+    for address, name in zip(callers, names):
+        by_caller[name] += cleared_for[address]
+    print("\n| memset, memcpy called from | instructions a frame | share |\n| --- | ---: | ---: |")
+    for function, n in by_caller.most_common(15):
+        print(f"| `{function}` | {n / frames:,.0f} | {100 * n / total:.1f} % |")
+    if len(sys.argv) > 2:
+        write_blocks(sys.argv[2], executed, size, symbol, frames, total)
+
+
+def write_blocks(path, executed, size, symbol, frames, total):
+    """The hottest blocks (for reading against `arm-none-eabi-objdump -d`) into `path`."""
+    weight = {a: times * size.get(a, 0) for a, times in executed.items()}
+    hottest = sorted(weight, key=weight.get, reverse=True)[:80]
+    names = demangled([symbol.get(a, b"?").decode() for a in hottest])
+    with open(path, "w") as out:
+        out.write("| block | function | instructions | runs a frame | instructions a frame | share |\n")
+        out.write("| --- | --- | ---: | ---: | ---: | ---: |\n")
+        for address, name in zip(hottest, names):
+            n = weight[address]
+            out.write(f"| 0x{address.decode()} | `{name}` | {size.get(address, 0)} | "
+                      f"{executed[address] / frames:,.0f} | {n / frames:,.0f} | {100 * n / total:.1f} % |\n")
 
 
 main()
