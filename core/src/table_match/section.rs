@@ -89,26 +89,31 @@ impl Slices {
     /// Model value and gradient at `s` px across.
     fn model(&self, s: f32, p: &Params) -> (f32, Params) {
         let (b, c0, c1, c2, s0, r, sigma) = (p[0], p[1], p[2], p[3], p[4], p[5], p[6]);
-        let mut cdf = [0.0f32; INTERVALS + 1];
-        let mut pdf = [0.0f32; INTERVALS + 1];
-        let mut z = [0.0f32; INTERVALS + 1];
-        for i in 0..=INTERVALS {
-            z[i] = (s - s0 - r * self.edges[i]) / sigma;
-            (cdf[i], pdf[i]) = normal::cdf_pdf(z[i]);
-        }
+        let node = |i: usize| {
+            let z = (s - s0 - r * self.edges[i]) / sigma;
+            let (cdf, pdf) = normal::cdf_pdf(z);
+            (z, cdf, pdf)
+        };
         let mut g = Params::zeros();
         let mut value = b;
         g[0] = 1.0;
+        // Slice `j` lies between nodes `j` and `j + 1`: each node is evaluated once, carried
+        // over to the next slice (no arrays of nodes: their zeroing was a memset a call on the
+        // M4F).
+        let mut lower = node(0);
         for j in 0..INTERVALS {
-            let coverage = cdf[j] - cdf[j + 1];
+            let upper = node(j + 1);
+            let ((z0, cdf0, pdf0), (z1, cdf1, pdf1)) = (lower, upper);
+            let coverage = cdf0 - cdf1;
             let amplitude = c0 + c1 * self.mean_w[j] + c2 * self.mean_sqrt[j];
             value += amplitude * coverage;
             g[1] += coverage;
             g[2] += self.mean_w[j] * coverage;
             g[3] += self.mean_sqrt[j] * coverage;
-            g[4] += amplitude * (pdf[j + 1] - pdf[j]) / sigma;
-            g[5] += amplitude * (self.edges[j + 1] * pdf[j + 1] - self.edges[j] * pdf[j]) / sigma;
-            g[6] += amplitude * (z[j + 1] * pdf[j + 1] - z[j] * pdf[j]) / sigma;
+            g[4] += amplitude * (pdf1 - pdf0) / sigma;
+            g[5] += amplitude * (self.edges[j + 1] * pdf1 - self.edges[j] * pdf0) / sigma;
+            g[6] += amplitude * (z1 * pdf1 - z0 * pdf0) / sigma;
+            lower = upper;
         }
         (value, g)
     }
