@@ -165,6 +165,38 @@ impl<'a> ChipView<'a> {
         self.for_each_in_span(y, 0, self.width, f);
     }
 
+    /// Calls `f(value, slot)` for the samples of row `y` from column `x_start` on, each with the
+    /// next of `slots`, as far as both go (no index to check: the per-pixel loops that fill
+    /// buffers along a row).
+    #[inline]
+    pub fn zip_span<I: IntoIterator>(
+        &self,
+        y: usize,
+        x_start: usize,
+        slots: I,
+        mut f: impl FnMut(u16, I::Item),
+    ) {
+        if y >= self.height || x_start >= self.width {
+            return;
+        }
+        let start = y * self.stride;
+        let span = start + x_start..start + self.width;
+        match self.samples {
+            Samples::Gray8(d) => {
+                if let Some(row) = d.get(span) {
+                    row.iter()
+                        .zip(slots)
+                        .for_each(|(&v, slot)| f(u16::from(v), slot));
+                }
+            }
+            Samples::Gray16(d) => {
+                if let Some(row) = d.get(span) {
+                    row.iter().zip(slots).for_each(|(&v, slot)| f(v, slot));
+                }
+            }
+        }
+    }
+
     /// Calls `f(x, value)` for the samples of row `y` in columns `x_start..x_end` (clipped to
     /// the chip).
     #[inline]

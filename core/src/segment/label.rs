@@ -18,24 +18,34 @@ pub const MAX_BOX_PX: usize = 5;
 /// chip half the largest side wide (5 KiB of stack).
 const HELD_FLOATS: usize = MAX_BOX_PX * MAX_CHIP_SIDE / 2;
 
-/// The background-subtracted values of row `y` from column `x_start`, into `out` (its length),
-/// each also handed to `each` with its index in the row (in the same pass: the common case's
-/// classification costs no second loop).
+/// The background-subtracted values of row `y` from column `x_start`, into `out` (its length).
 fn residuals_of_row(
     chip: &ChipView,
     background: &Background,
     y: usize,
     x_start: usize,
     out: &mut [f32],
-    mut each: impl FnMut(usize, f32),
 ) {
     background.fill_row(y, x_start, out);
-    chip.for_each_in_span(y, x_start, x_start + out.len(), |x, value| {
-        let i = x - x_start;
-        if let Some(r) = out.get_mut(i) {
-            *r = f32::from(value) - *r;
-            each(i, *r);
-        }
+    chip.zip_span(y, x_start, out.iter_mut(), |value, r| {
+        *r = f32::from(value) - *r;
+    });
+}
+
+/// [`residuals_of_row`], each value also classed by `classify` into `classes` in the same pass.
+fn classified_row(
+    chip: &ChipView,
+    background: &Background,
+    (y, x_start): (usize, usize),
+    out: &mut [f32],
+    classes: &mut [i8],
+    classify: &impl Fn(f32) -> i8,
+) {
+    background.fill_row(y, x_start, out);
+    let slots = out.iter_mut().zip(classes.iter_mut());
+    chip.zip_span(y, x_start, slots, |value, (r, class)| {
+        *r = f32::from(value) - *r;
+        *class = classify(*r);
     });
 }
 
@@ -319,11 +329,14 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
                 let Some(residuals) = held.get_mut(..width) else {
                     return Ok(());
                 };
-                residuals_of_row(chip, background, y, x_start, residuals, |i, r| {
-                    if let Some(c) = classes.get_mut(i) {
-                        *c = classify(r);
-                    }
-                });
+                classified_row(
+                    chip,
+                    background,
+                    (y, x_start),
+                    residuals,
+                    classes,
+                    &classify,
+                );
             } else {
                 // The column sums over the box's rows (in order, from zero), then a running
                 // sum across the columns.
@@ -335,7 +348,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
                         return Ok(());
                     };
                     if !ring || r >= computed {
-                        residuals_of_row(chip, background, r, x_start, residuals, |_, _| {});
+                        residuals_of_row(chip, background, r, x_start, residuals);
                     }
                     for (b, v) in boxed.iter_mut().zip(residuals.iter()) {
                         *b += v;
@@ -344,7 +357,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
                 computed = rows.end;
                 box_across(boxed, half, n_rows, classes, &classify);
                 if !ring && let Some(residuals) = held.get_mut(..width) {
-                    residuals_of_row(chip, background, y, x_start, residuals, |_, _| {});
+                    residuals_of_row(chip, background, y, x_start, residuals);
                 }
             }
             let Some(residuals) = held.get(slot_of(y)..slot_of(y) + width) else {
