@@ -229,3 +229,32 @@ impl<'a> ChipView<'a> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `zip_span` hands over the row's samples from `x_start`, each with the next slot, and
+    /// stops at the end of the row or of the slots, whichever comes first; a row outside the
+    /// chip gives nothing. Checked by hand on a 4 x 2 chip with a stride of 5.
+    #[test]
+    fn zip_span_pairs_samples_with_slots_up_to_the_shorter() {
+        let data: [u16; 10] = [1, 2, 3, 4, 99, 5, 6, 7, 8, 99];
+        let chip = ChipView::gray16(&data, 4, 2, 5, 0, 0).unwrap();
+        let mut slots = [0u16; 8];
+        chip.zip_span(1, 1, slots.iter_mut(), |v, slot| *slot = v);
+        assert_eq!(slots, [6, 7, 8, 0, 0, 0, 0, 0], "stops at the row's end");
+        let mut short = [0u16; 2];
+        chip.zip_span(0, 0, short.iter_mut(), |v, slot| *slot = v);
+        assert_eq!(short, [1, 2], "stops at the slots' end");
+        let bytes: [u8; 10] = [1, 2, 3, 4, 99, 5, 6, 7, 8, 99];
+        let chip8 = ChipView::gray8(&bytes, 4, 2, 5, 0, 0).unwrap();
+        let mut seen = 0;
+        chip8.zip_span(2, 0, 0..8, |_, _| seen += 1);
+        chip8.zip_span(0, 4, 0..8, |_, _| seen += 1);
+        assert_eq!(seen, 0, "nothing outside the chip");
+        let mut sum = 0u32;
+        chip8.zip_span(1, 0, 0..8u32, |v, i| sum += u32::from(v) * (i + 1));
+        assert_eq!(sum, 5 + 2 * 6 + 3 * 7 + 4 * 8);
+    }
+}
