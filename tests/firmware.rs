@@ -10,7 +10,8 @@
 //! - the host's pipeline replaying the same packed bytes: every frame's whole result, floats at
 //!   full precision (shortest round-trip `Debug` form), must be identical, i.e. tolerance zero.
 //!
-//! It also checks that `report.json` holds the five figures.
+//! It also checks that `report.json` holds the five figures, and, in the firmware's default
+//! configuration (without the grey-level fit), that the memory budgets hold.
 
 use anyhow::{Context, anyhow, ensure};
 use imade_core::Pipeline;
@@ -34,6 +35,63 @@ fn firmware_results_equal_the_hosts() -> anyhow::Result<()> {
         "bundled",
         &dir,
     )
+}
+
+/// With the grey-level fit (`firmware-sim/run --grey-fit`, `imade run`'s default), on the
+/// first three frames of the clip without its range (the fit is some 770 M instructions a frame
+/// on the M4F): the fit gives the host's results bit for bit.
+#[test]
+fn firmware_runs_the_grey_level_fit_as_the_host() -> anyhow::Result<()> {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("firmware-grey-fit");
+    if dir.exists() {
+        std::fs::remove_dir_all(&dir)?;
+    }
+    let clip = first_frames(
+        &root().join("fixtures/small-unknown-range"),
+        3,
+        &dir.join("clip"),
+    )?;
+    let case = Case {
+        range: RangeArg::Ignore,
+        lut: "bundled",
+        grey_fit: true,
+    };
+    check(&clip, &case, &dir.join("run"))?;
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(
+        dir.join("run/firmware/report.json"),
+    )?)?;
+    eprintln!(
+        "grey-level fit on the firmware: median {} instructions a frame, stack peak {} B",
+        report["instructions_per_frame_median"], report["stack_peak_bytes"]
+    );
+    Ok(())
+}
+
+/// A copy of `clip` in `dir` with only its first `n` frame rows.
+fn first_frames(clip: &Path, n: usize, dir: &Path) -> anyhow::Result<PathBuf> {
+    for entry in walkdir(clip)? {
+        let to = dir.join(entry.strip_prefix(clip)?);
+        std::fs::create_dir_all(to.parent().context("a file in the clip")?)?;
+        std::fs::copy(&entry, &to)?;
+    }
+    let frames = std::fs::read_to_string(clip.join("frames.csv"))?;
+    let kept: Vec<&str> = frames.lines().take(n + 1).collect();
+    std::fs::write(dir.join("frames.csv"), kept.join("\n") + "\n")?;
+    Ok(dir.to_path_buf())
+}
+
+/// Every file under `dir`.
+fn walkdir(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(dir)? {
+        let path = entry?.path();
+        if path.is_dir() {
+            files.extend(walkdir(&path)?);
+        } else {
+            files.push(path);
+        }
+    }
+    Ok(files)
 }
 
 /// Without the range sensor, with the mount's pointing: the flight filter gives the range on
@@ -69,24 +127,59 @@ fn firmware_runs_a_model_built_from_a_mesh() -> anyhow::Result<()> {
     )
 }
 
-/// Runs `clip` using its range as `range` says, with the model choice `lut` (`bundled` or a
-/// model file), on the firmware and on the host, in `dir`, and compares them.
+/// How a clip is run: its range used as `range` says, the model choice `lut` (`bundled` or a
+/// model file), with the grey-level fit or not.
+struct Case<'a> {
+    range: RangeArg,
+    lut: &'a str,
+    grey_fit: bool,
+}
+
+/// Runs the 20-frame `clip` in the firmware's default configuration (without the grey-level
+/// fit), on the firmware and on the host, in `dir`, compares them, and checks the memory
+/// budgets.
 fn check_firmware(clip: &Path, range: RangeArg, lut: &str, dir: &Path) -> anyhow::Result<()> {
+    let case = Case {
+        range,
+        lut,
+        grey_fit: false,
+    };
+    let rows = check(clip, &case, dir)?;
+    assert_eq!(rows, 20, "20 frame rows");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("firmware/report.json"))?)?;
+    // The memory budgets hold (the instruction budget is an open issue): a pipeline moved on
+    // the stack once cost 80 KB and went over unnoticed.
+    let ram = report["static_ram_bytes"].as_u64().unwrap_or(u64::MAX);
+    let stack = report["stack_peak_bytes"].as_u64().unwrap_or(u64::MAX);
+    assert!(
+        ram + stack <= 192 * 1024,
+        "static RAM {ram} B + stack peak {stack} B over 192 KiB"
+    );
+    let flash = report["flash_bytes"].as_u64().unwrap_or(u64::MAX);
+    assert!(flash <= 1024 * 1024, "flash {flash} B over 1 MiB");
+    Ok(())
+}
+
+/// Runs `clip` as `case` says on the firmware and on the host, in `dir`, compares them (results
+/// and outcomes, at least half the rows with a pose), checks that `report.json` has its
+/// figures, and returns the number of frame rows.
+fn check(clip: &Path, case: &Case, dir: &Path) -> anyhow::Result<usize> {
     let clip = clip.to_path_buf();
     if dir.exists() {
         std::fs::remove_dir_all(dir)?;
     }
     let host_dir = dir.join("host");
-    // The firmware's configuration: without the grey-level fit.
+    let lut = case.lut;
     run(&RunArgs {
         lut: lut.into(),
-        no_grey_fit: true,
+        no_grey_fit: !case.grey_fit,
         polarity: PolarityArg::default(),
-        ..imade_tests::run_args(&clip, range, &host_dir)
+        ..imade_tests::run_args(&clip, case.range, &host_dir)
     })?;
     let host_csv = host_dir.join("results.csv");
     let packed = dir.join("clip.pack");
-    pack_clip(&clip, &packed, range, lut)?;
+    pack_clip(&clip, &packed, case.range, lut, case.grey_fit)?;
 
     let out = dir.join("firmware");
     let status = Command::new(root().join("firmware-sim/run"))
@@ -102,11 +195,11 @@ fn check_firmware(clip: &Path, range: RangeArg, lut: &str, dir: &Path) -> anyhow
     let host = std::fs::read_to_string(&host_csv)?;
     let firmware = std::fs::read_to_string(out.join("results.csv"))?;
     assert_same_lines(&host, &firmware, "results.csv");
-    assert_eq!(host.lines().count(), 21, "a header and 20 frame rows");
+    let rows = host.lines().count().saturating_sub(1);
     let poses = host.lines().filter(|l| l.contains(",ok,")).count();
     assert!(
-        poses >= 10,
-        "the comparison should cover poses, not only failures: {poses} ok rows"
+        2 * poses >= rows && poses > 0,
+        "the comparison should cover poses, not only failures: {poses} ok rows of {rows}"
     );
 
     let expected = host_outcomes(&std::fs::read(&packed)?, lut)?.join("\n");
@@ -125,17 +218,7 @@ fn check_firmware(clip: &Path, range: RangeArg, lut: &str, dir: &Path) -> anyhow
         let value = report[key].as_u64().unwrap_or(0);
         assert!(value > 0, "report.json: {key} is {}", report[key]);
     }
-    // The memory budgets hold (the instruction budget is an open issue): a pipeline moved on
-    // the stack once cost 80 KB and went over unnoticed.
-    let ram = report["static_ram_bytes"].as_u64().unwrap_or(u64::MAX);
-    let stack = report["stack_peak_bytes"].as_u64().unwrap_or(u64::MAX);
-    assert!(
-        ram + stack <= 192 * 1024,
-        "static RAM {ram} B + stack peak {stack} B over 192 KiB"
-    );
-    let flash = report["flash_bytes"].as_u64().unwrap_or(u64::MAX);
-    assert!(flash <= 1024 * 1024, "flash {flash} B over 1 MiB");
-    Ok(())
+    Ok(rows)
 }
 
 /// Every frame's outcome in `Debug` form, from the host's pipeline replaying the packed clip

@@ -179,7 +179,7 @@ fn run() -> Result<(), Error> {
         let mut instructions = None;
         let outcome = imade_pack::replay(&record, chip, |frame| {
             let (result, count) = counter.measure(|| process(&mut pipeline, frame));
-            instructions = count;
+            instructions = Some(count);
             result
         });
         outputs.frame(&outcome, instructions, header.world.is_some())?;

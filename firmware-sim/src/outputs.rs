@@ -5,8 +5,7 @@
 //! - the outcomes, one line per frame in Rust's `Debug` form: every float of the result at full
 //!   precision (shortest round-trip), so equal lines mean bit-equal results,
 //! - the measurements CSV: `frame,status,instructions,stack_peak_bytes` for every frame the
-//!   pipeline ran on (instructions empty when the count ran past SysTick's range; the stack peak
-//!   is the deepest since reset).
+//!   pipeline ran on (the stack peak is the deepest since reset).
 
 use crate::host_io::{self, IoError, OutputFile};
 use crate::stack;
@@ -68,7 +67,7 @@ impl Outputs {
     pub fn frame(
         &mut self,
         outcome: &Outcome,
-        instructions: Option<u32>,
+        instructions: Option<u64>,
         world: bool,
     ) -> Result<(), OutputError> {
         let mut line = heapless::String::<MAX_LINE>::new();

@@ -25,11 +25,15 @@ pub struct PackArgs {
     /// firmware was built with (`firmware-sim/run --lut FILE` builds it so).
     #[arg(long, default_value = "bundled")]
     pub lut: String,
+    /// Run the grey-level fit (`imade run`'s default; the firmware's default is without it, as
+    /// `imade run --no-grey-fit`, which its budgets allow).
+    #[arg(long)]
+    pub grey_fit: bool,
 }
 
 /// Runs `imade pack`.
 pub fn run(args: &PackArgs) -> anyhow::Result<()> {
-    let records = pack_clip(&args.clip, &args.out, args.range, &args.lut)?;
+    let records = pack_clip(&args.clip, &args.out, args.range, &args.lut, args.grey_fit)?;
     eprintln!(
         "{}: {records} frame rows -> {}",
         args.clip.display(),
@@ -39,9 +43,16 @@ pub fn run(args: &PackArgs) -> anyhow::Result<()> {
 }
 
 /// Packs the clip in `dir` into `out` (written atomically), with the range use and table choice
-/// of `imade run --range range --lut lut`; returns the number of records.
-pub fn pack_clip(dir: &Path, out: &Path, range: RangeArg, lut: &str) -> anyhow::Result<usize> {
-    let (bytes, records) = pack_bytes(dir, range, lut)?;
+/// of `imade run --range range --lut lut`, with the grey-level fit or not; returns the number of
+/// records.
+pub fn pack_clip(
+    dir: &Path,
+    out: &Path,
+    range: RangeArg,
+    lut: &str,
+    grey_fit: bool,
+) -> anyhow::Result<usize> {
+    let (bytes, records) = pack_bytes(dir, range, lut, grey_fit)?;
     if let Some(parent) = out.parent() {
         std::fs::create_dir_all(parent)
             .with_context(|| format!("creating {}", parent.display()))?;
@@ -51,7 +62,12 @@ pub fn pack_clip(dir: &Path, out: &Path, range: RangeArg, lut: &str) -> anyhow::
 }
 
 /// The packed bytes of the clip in `dir`, and the number of records.
-pub fn pack_bytes(dir: &Path, range: RangeArg, lut: &str) -> anyhow::Result<(Vec<u8>, usize)> {
+pub fn pack_bytes(
+    dir: &Path,
+    range: RangeArg,
+    lut: &str,
+    grey_fit: bool,
+) -> anyhow::Result<(Vec<u8>, usize)> {
     let clip = Clip::open(dir)?;
     let model = clip.model(lut)?;
     let camera = clip.meta.camera.camera();
@@ -65,6 +81,9 @@ pub fn pack_bytes(dir: &Path, range: RangeArg, lut: &str) -> anyhow::Result<(Vec
         .with_context(|| format!("projectile id {:?}", clip.meta.projectile))?;
     if clip.has_mount {
         header = header.with_world(clip.station());
+    }
+    if grey_fit {
+        header = header.with_grey_fit();
     }
     let mut bytes = header.encode().to_vec();
     for entry in &clip.frames {

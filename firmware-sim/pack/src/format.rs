@@ -11,7 +11,7 @@
 //! | 24 | range use: 0 auto, 1 ignore |
 //! | 25 | silhouette table: 0 none, 1 the bundled table of the projectile |
 //! | 26 | length of the projectile id, at most [`MAX_PROJECTILE_ID`] |
-//! | 27 | flags: bit 0 the clip has the mount's columns (the results state the world frame) |
+//! | 27 | flags: bit 0 the clip has the mount's columns (the results state the world frame); bit 1 the grey-level fit runs (`imade pack --grey-fit`) |
 //! | 28..60 | projectile id, UTF-8, zero-padded |
 //! | 60..64 | number of records, u32 |
 //! | 64..88 | station east, north, up, f64, m (zero without the mount's columns) |
@@ -54,6 +54,8 @@ const FLAG_RANGE: u8 = 2;
 const FLAG_MOUNT: u8 = 4;
 /// Header flag: the clip has the mount's columns.
 const FLAG_WORLD: u8 = 1;
+/// Header flag: the grey-level fit runs.
+const FLAG_GREY_FIT: u8 = 2;
 
 /// Why bytes are not imade-pack/1.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -118,6 +120,9 @@ pub struct Header {
     /// Where the clip has the mount's columns: the station the results state the world frame
     /// from.
     pub world: Option<Station>,
+    /// Whether the pipeline runs the grey-level fit (`imade run`'s default; off, the firmware's
+    /// default, is `imade run --no-grey-fit`).
+    pub grey_fit: bool,
 }
 
 impl Header {
@@ -137,7 +142,16 @@ impl Header {
                 .map_err(|_| PackError::BadProjectile)?,
             records,
             world: None,
+            grey_fit: false,
         })
+    }
+
+    /// The header of a clip run with the grey-level fit.
+    pub fn with_grey_fit(self) -> Self {
+        Header {
+            grey_fit: true,
+            ..self
+        }
     }
 
     /// The header of a clip with the mount's columns, recorded at `station`.
@@ -170,6 +184,9 @@ impl Header {
         b[26] = id.len() as u8;
         b[28..28 + id.len()].copy_from_slice(id);
         b[60..64].copy_from_slice(&self.records.to_le_bytes());
+        if self.grey_fit {
+            b[27] |= FLAG_GREY_FIT;
+        }
         if let Some(station) = &self.world {
             b[27] |= FLAG_WORLD;
             for (i, v) in station.enu_m.iter().enumerate() {
@@ -221,6 +238,7 @@ impl Header {
             } else {
                 None
             },
+            grey_fit: b[27] & FLAG_GREY_FIT != 0,
         })
     }
 }

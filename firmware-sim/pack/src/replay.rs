@@ -6,16 +6,16 @@ use core::fmt;
 use imade_core::{ChipError, ChipView, Config, FrameInput, FrameResult, results};
 
 impl Header {
-    /// The pipeline configuration: the defaults with the header's range use, without the
-    /// grey-level fit (the firmware does not run it yet: about 470 M instructions a frame and
-    /// 25 KB more stack on the reference clip, beyond its budgets; `imade run --no-grey-fit` is
-    /// the host's run of the same configuration).
+    /// The pipeline configuration: the defaults with the header's range use, and the grey-level
+    /// fit only where the header asks for it (`imade pack --grey-fit`): on the firmware it costs
+    /// some 770 M instructions a frame and 135 KB more stack, beyond its budgets, so by default
+    /// the firmware runs as `imade run --no-grey-fit`.
     pub fn config(&self) -> Config {
         let mut config = Config {
             range_use: self.range_use,
             ..Config::DEFAULT
         };
-        config.grey_fit.enabled = false;
+        config.grey_fit.enabled = self.grey_fit;
         config
     }
 }
