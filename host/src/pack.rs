@@ -138,3 +138,29 @@ fn chip_frame(clip: &Clip, row: &FrameRow) -> Result<(ChipFrame, ChipImage), Fra
     };
     Ok((frame, chip.image))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The header packed from a bundled clip reads back as the clip and the options say: its
+    /// range use, table, projectile, records, station, and the grey-level fit, which sets the
+    /// replayed pipeline's configuration.
+    #[test]
+    fn the_header_carries_the_clips_options() {
+        let clip = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/small-unknown-range");
+        for grey_fit in [false, true] {
+            let (bytes, records) =
+                pack_bytes(&clip, RangeArg::Ignore, "bundled", grey_fit).unwrap();
+            let header = imade_pack::read_header(&mut bytes.as_slice()).unwrap();
+            assert_eq!(records, 20);
+            assert_eq!(header.records, 20);
+            assert_eq!(header.range_use, imade_core::RangeUse::Ignore);
+            assert_eq!(header.table, TableUse::Bundled);
+            assert_eq!(header.projectile.as_str(), "ref-1378x80");
+            assert!(header.world.is_some(), "the clip has the mount's columns");
+            assert_eq!(header.grey_fit, grey_fit);
+            assert_eq!(header.config().grey_fit.enabled, grey_fit);
+        }
+    }
+}
