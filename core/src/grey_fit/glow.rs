@@ -35,6 +35,24 @@ pub struct GlowImage {
     pub d_log_sigmas: [f32; 2],
 }
 
+/// Where the glow lies: its widths along and across the axis and the body's base along it, m.
+/// Found once per rendering of the window (the widths are exponentials, the base a cosine:
+/// software floating point on the M4F), then [`GlowPlace::image`] at each point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GlowPlace {
+    /// The widths along and across the axis, m.
+    pub sigmas_m: [f32; 2],
+    /// The base's place along the axis, m.
+    pub base_u_m: f32,
+}
+
+impl GlowPlace {
+    /// The glow's image at silhouette-frame point `(u, v)`, m ([`glow_image`]).
+    pub fn image(&self, u: f32, v: f32) -> GlowImage {
+        glow_image(self.sigmas_m, self.base_u_m, u, v)
+    }
+}
+
 /// The glow of unit peak and sigmas `sigmas_m` (along and across the axis, m) beyond a base
 /// centred at `base_u_m` on the axis, at the silhouette-frame point `(u, v)` (m, `u` towards
 /// the nose).

@@ -605,14 +605,15 @@ impl<const C: usize> GreyProblem<'_, C> {
         }
     }
 
-    /// The glow of unit peak next to the tail at `p` and `tilt_deg` at the silhouette-frame
-    /// point `(u, v)`, m (None without a plume).
-    fn glow(&self, p: &Params, tilt_deg: f32, u: f32, v: f32) -> Option<glow::GlowImage> {
+    /// Where the glow of unit peak next to the tail lies at `p` and `tilt_deg` (None without a
+    /// plume).
+    fn glow_place(&self, p: &Params, tilt_deg: f32) -> Option<glow::GlowPlace> {
         self.input.plume_at_tail.then(|| {
             let d = self.model.diameter_m;
-            let sigmas_m = [d * libm::expf(p[GLOW + 1]), d * libm::expf(p[GLOW + 2])];
-            let base_u_m = -base_distance_m(self.model, tilt_deg);
-            glow::glow_image(sigmas_m, base_u_m, u, v)
+            glow::GlowPlace {
+                sigmas_m: [d * libm::expf(p[GLOW + 1]), d * libm::expf(p[GLOW + 2])],
+                base_u_m: -base_distance_m(self.model, tilt_deg),
+            }
         })
     }
 
@@ -633,19 +634,17 @@ impl<const C: usize> GreyProblem<'_, C> {
         p[GLOW] + p[GLOW_FRONT]
     }
 
-    /// The body and the glow over the sky at `p` with the outline `outline` at `tilt_deg`, at
-    /// the silhouette-frame point `(u, v)` (m) and blur `sigma_m` (m), where the sky is
-    /// `sky_here` (over the fit's reference), grey levels.
+    /// The body and the glow over the sky at `p` with the outline `outline` and the glow at
+    /// `glow_place` (of the same tilt), at the silhouette-frame point `(u, v)` (m) and blur
+    /// `sigma_m` (m), where the sky is `sky_here` (over the fit's reference), grey levels.
     fn image(
-        &self,
         p: &Params,
-        outline: &Outline<C>,
-        tilt_deg: f32,
+        (outline, glow_place): (&Outline<C>, Option<&glow::GlowPlace>),
         (u, v): (f32, f32),
         sigma_m: f32,
         sky_here: f32,
     ) -> f32 {
-        let glow = self.glow(p, tilt_deg, u, v);
+        let glow = glow_place.map(|g| g.image(u, v));
         let b = appearance::body_basis(outline, u, v, sigma_m);
         let shading = Self::shading_over(p, glow.as_ref(), sky_here);
         appearance::contrast(shading, b) + glow.map_or(0.0, |g| Self::glow_peaks(p) * g.shape)
@@ -661,6 +660,7 @@ impl<const C: usize> GreyProblem<'_, C> {
     /// The cost alone at `p` (no derivatives: one rendering of the window).
     fn cost(&self, p: &Params) -> Option<f32> {
         let outline = self.outline(p[TILT], p[ROLL])?;
+        let glow_place = self.glow_place(p, p[TILT]);
         let frame = self.frame(p);
         let sigma_m = p[SIGMA] / frame.px_per_m;
         let mut cost = 0.0;
@@ -668,10 +668,9 @@ impl<const C: usize> GreyProblem<'_, C> {
             let (data, offset) = self.data(x, y);
             let local = frame.local(x as f32, y as f32);
             let sky = SkyBins::at(point, p);
-            let image = self.image(
+            let image = Self::image(
                 p,
-                &outline,
-                p[TILT],
+                (&outline, glow_place.as_ref()),
                 local,
                 sigma_m,
                 self.behind(offset + sky),
@@ -694,6 +693,8 @@ impl<const C: usize> Problem<PARAMS> for GreyProblem<'_, C> {
         } else {
             None
         };
+        let glow_place = self.glow_place(p, p[TILT]);
+        let tilted_glow_place = self.glow_place(p, p[TILT] + TILT_STEP_DEG);
         let frame = self.frame(p);
         let sigma_m = p[SIGMA] / frame.px_per_m;
         // The start's axis and its normal in the current one's frame: how moving the origin
@@ -707,7 +708,7 @@ impl<const C: usize> Problem<PARAMS> for GreyProblem<'_, C> {
         self.window.for_each(self.input.chip, |x, y, point| {
             let (data, offset) = self.data(x, y);
             let (u, v) = frame.local(x as f32, y as f32);
-            let glow = self.glow(p, p[TILT], u, v);
+            let glow = glow_place.map(|g| g.image(u, v));
             let sky = SkyBins::at(point, p);
             let sky_here = self.behind(offset + sky);
             // The hidden glow darkens the body's contrast as much as it lights the sky beside
@@ -738,9 +739,8 @@ impl<const C: usize> Problem<PARAMS> for GreyProblem<'_, C> {
                 g[LOG_SCALE] = -(d_u * u + d_v * v + image.d_sigma * sigma_m);
             }
             g[SIGMA] = image.d_sigma * inv_k;
-            let tilt = p[TILT] + TILT_STEP_DEG;
-            g[TILT] =
-                (self.image(p, &tilted, tilt, (u, v), sigma_m, sky_here) - value) / TILT_STEP_DEG;
+            let tilted = (&tilted, tilted_glow_place.as_ref());
+            g[TILT] = (Self::image(p, tilted, (u, v), sigma_m, sky_here) - value) / TILT_STEP_DEG;
             if let Some(rolled) = &rolled {
                 let br = appearance::body_basis(rolled, u, v, sigma_m);
                 g[ROLL] = (appearance::contrast(shading, br) - contrast) / ROLL_STEP_DEG;
