@@ -40,7 +40,10 @@ STAGES = [
 ]
 
 
-MEMORY_ROUTINE = re.compile(rb"mem(set|cpy|clr|move)")
+# The runtime's helpers (memset/memcpy and kin, software floating point, libm), whose
+# instructions are also counted for the function that called them. In v0 mangling a crate's name
+# comes with its length: `17compiler_builtins`, `4libm`.
+HELPER = re.compile(rb"mem(set|cpy|clr|move)|__aeabi_|17compiler_builtins|4libm")
 
 
 def demangled(symbols):
@@ -62,18 +65,18 @@ def main():
     executed = collections.Counter()  # block start address -> times executed
     size = {}  # block start address -> instructions in the block
     symbol = {}
-    # The blocks of memset/memcpy and their kin, and their instructions per calling block: the
-    # last block executed outside them.
-    clearing = set()
-    cleared_for = collections.Counter()
+    # The helpers' blocks, and their instructions per calling block: the last block executed
+    # outside them.
+    helpers = set()
+    helped = collections.Counter()
     caller = b"?"
     block, count = None, 0
     for line in sys.stdin.buffer:
         if line.startswith(b"Trace"):
             address = line.split(b"/", 2)[1]
             executed[address] += 1
-            if address in clearing:
-                cleared_for[caller] += size[address]
+            if address in helpers:
+                helped[caller] += size[address]
             else:
                 caller = address
         elif line.startswith(b"0x"):
@@ -86,8 +89,8 @@ def main():
         elif block is not None and not line.strip():
             size[block] = count
             symbol[block] = name
-            if MEMORY_ROUTINE.search(name):
-                clearing.add(block)
+            if HELPER.search(name):
+                helpers.add(block)
             block = None
     raw = collections.Counter()
     for address, times in executed.items():
@@ -108,11 +111,12 @@ def main():
     for function, n in per_function.most_common(40):
         print(f"| `{function}` | {n / frames:,.0f} | {100 * n / total:.1f} % |")
     by_caller = collections.Counter()
-    callers = list(cleared_for)
+    callers = list(helped)
     names = demangled([symbol.get(a, b"?").decode() for a in callers])
     for address, name in zip(callers, names):
-        by_caller[name] += cleared_for[address]
-    print("\n| memset, memcpy called from | instructions a frame | share |\n| --- | ---: | ---: |")
+        by_caller[name] += helped[address]
+    print("\n| memset, memcpy, software floating point and libm called from | instructions a frame "
+          "| share |\n| --- | ---: | ---: |")
     for function, n in by_caller.most_common(15):
         print(f"| `{function}` | {n / frames:,.0f} | {100 * n / total:.1f} % |")
     if len(sys.argv) > 2:
