@@ -38,8 +38,8 @@ fn firmware_results_equal_the_hosts() -> anyhow::Result<()> {
 }
 
 /// With the grey-level fit (`firmware-sim/run --grey-fit`, `imade run`'s default), on the
-/// first three frames of the clip without its range (the fit is some 770 M instructions a frame
-/// on the M4F): the fit gives the host's results bit for bit.
+/// first three frames of the clip without its range (the fit is some 1 G instructions a frame
+/// there on the M4F): the fit gives the host's results bit for bit.
 #[test]
 fn firmware_runs_the_grey_level_fit_as_the_host() -> anyhow::Result<()> {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("firmware-grey-fit");

@@ -8,7 +8,7 @@ use imade_core::{ChipError, ChipView, Config, FrameInput, FrameResult, results};
 impl Header {
     /// The pipeline configuration: the defaults with the header's range use, and the grey-level
     /// fit only where the header asks for it (`imade pack --grey-fit`): on the firmware it costs
-    /// some 770 M instructions a frame and 135 KB more stack, beyond its budgets, so by default
+    /// 0.7-1.7 G instructions a frame and 135 KB more stack, beyond its budgets, so by default
     /// the firmware runs as `imade run --no-grey-fit`.
     pub fn config(&self) -> Config {
         let mut config = Config {
