@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Reads QEMU's `-d exec,nochain,in_asm` log from stdin and writes, per function and per stage,
 the instructions executed (see firmware-sim/profile); given a second argument, the hottest blocks
-into that file."""
+into that file, with the source they were inlined from where a third names the firmware's ELF."""
 import collections
 import re
 import subprocess
@@ -120,21 +120,47 @@ def main():
     for function, n in by_caller.most_common(15):
         print(f"| `{function}` | {n / frames:,.0f} | {100 * n / total:.1f} % |")
     if len(sys.argv) > 2:
-        write_blocks(sys.argv[2], executed, size, symbol, frames, total)
+        elf = sys.argv[3] if len(sys.argv) > 3 else None
+        write_blocks(sys.argv[2], executed, size, symbol, frames, total, elf)
 
 
-def write_blocks(path, executed, size, symbol, frames, total):
-    """The hottest blocks (for reading against `arm-none-eabi-objdump -d`) into `path`."""
+def write_blocks(path, executed, size, symbol, frames, total, elf):
+    """The hottest blocks (for reading against `arm-none-eabi-objdump -d`) into `path`, each with
+    the project's source it was inlined from (`elf`'s debug information)."""
     weight = {a: times * size.get(a, 0) for a, times in executed.items()}
     hottest = sorted(weight, key=weight.get, reverse=True)[:80]
     names = demangled([symbol.get(a, b"?").decode() for a in hottest])
+    sources = inlined_from(elf, hottest) if elf else {}
     with open(path, "w") as out:
-        out.write("| block | function | instructions | runs a frame | instructions a frame | share |\n")
-        out.write("| --- | --- | ---: | ---: | ---: | ---: |\n")
+        out.write("| block | function | inlined from (innermost first) | instructions | runs a frame "
+                  "| instructions a frame | share |\n")
+        out.write("| --- | --- | --- | ---: | ---: | ---: | ---: |\n")
         for address, name in zip(hottest, names):
             n = weight[address]
-            out.write(f"| 0x{address.decode()} | `{name}` | {size.get(address, 0)} | "
-                      f"{executed[address] / frames:,.0f} | {n / frames:,.0f} | {100 * n / total:.1f} % |\n")
+            out.write(f"| 0x{address.decode()} | `{name}` | {sources.get(address, '')} | "
+                      f"{size.get(address, 0)} | {executed[address] / frames:,.0f} | "
+                      f"{n / frames:,.0f} | {100 * n / total:.1f} % |\n")
 
+
+def inlined_from(elf, addresses):
+    """Per address, the project's source lines its code was inlined from, innermost first
+    (`file:line`; past three, the two innermost and the outermost), from binutils'
+    `arm-none-eabi-addr2line -i`."""
+    text = subprocess.run(
+        ["arm-none-eabi-addr2line", "-a", "-i", "-e", elf] + ["0x" + a.decode() for a in addresses],
+        capture_output=True, text=True, check=False).stdout
+    chains, current = {}, None
+    for line in text.splitlines():
+        if line.startswith("0x"):
+            current = line[2:].lower().encode().rjust(8, b"0")[-8:]
+            chains[current] = []
+        elif current is not None and "/src/" in line and "/rustlib/" not in line:
+            # The repository's own files: core/src/..., firmware-sim/src/...
+            where = re.sub(r".*?/((core|firmware-sim|host)/src/.*?)( \(discriminator \d+\))?$", r"\1", line)
+            if where not in chains[current]:
+                chains[current].append(where)
+    shown = {a: chain if len(chain) <= 3 else chain[:2] + ["...", chain[-1]]
+             for a, chain in chains.items()}
+    return {a: " < ".join(chain) for a, chain in shown.items()}
 
 main()
