@@ -167,7 +167,8 @@ impl<'a> ChipView<'a> {
 
     /// Calls `f(value, slot)` for the samples of row `y` from column `x_start` on, each with the
     /// next of `slots`, as far as both go (no index to check: the per-pixel loops that fill
-    /// buffers along a row).
+    /// buffers along a row). [`ChipView::for_each_in_span`] is not written as this zipped with
+    /// its columns: measured so, the firmware took 5 % more instructions a frame.
     #[inline]
     pub fn zip_span<I: IntoIterator>(
         &self,
