@@ -56,10 +56,7 @@ fn firmware_runs_the_grey_level_fit_as_the_host() -> anyhow::Result<()> {
         lut: "bundled",
         grey_fit: true,
     };
-    check(&clip, &case, &dir.join("run"))?;
-    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(
-        dir.join("run/firmware/report.json"),
-    )?)?;
+    let (_, report) = check(&clip, &case, &dir.join("run"))?;
     eprintln!(
         "grey-level fit on the firmware: median {} instructions a frame, stack peak {} B",
         report["instructions_per_frame_median"], report["stack_peak_bytes"]
@@ -69,29 +66,11 @@ fn firmware_runs_the_grey_level_fit_as_the_host() -> anyhow::Result<()> {
 
 /// A copy of `clip` in `dir` with only its first `n` frame rows.
 fn first_frames(clip: &Path, n: usize, dir: &Path) -> anyhow::Result<PathBuf> {
-    for entry in walkdir(clip)? {
-        let to = dir.join(entry.strip_prefix(clip)?);
-        std::fs::create_dir_all(to.parent().context("a file in the clip")?)?;
-        std::fs::copy(&entry, &to)?;
-    }
+    imade_tests::copy_clip(clip, dir);
     let frames = std::fs::read_to_string(clip.join("frames.csv"))?;
     let kept: Vec<&str> = frames.lines().take(n + 1).collect();
     std::fs::write(dir.join("frames.csv"), kept.join("\n") + "\n")?;
     Ok(dir.to_path_buf())
-}
-
-/// Every file under `dir`.
-fn walkdir(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
-    let mut files = Vec::new();
-    for entry in std::fs::read_dir(dir)? {
-        let path = entry?.path();
-        if path.is_dir() {
-            files.extend(walkdir(&path)?);
-        } else {
-            files.push(path);
-        }
-    }
-    Ok(files)
 }
 
 /// Without the range sensor, with the mount's pointing: the flight filter gives the range on
@@ -144,10 +123,8 @@ fn check_firmware(clip: &Path, range: RangeArg, lut: &str, dir: &Path) -> anyhow
         lut,
         grey_fit: false,
     };
-    let rows = check(clip, &case, dir)?;
+    let (rows, report) = check(clip, &case, dir)?;
     assert_eq!(rows, 20, "20 frame rows");
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("firmware/report.json"))?)?;
     // The memory budgets hold (the instruction budget is an open issue): a pipeline moved on
     // the stack once cost 80 KB and went over unnoticed.
     let ram = report["static_ram_bytes"].as_u64().unwrap_or(u64::MAX);
@@ -163,8 +140,8 @@ fn check_firmware(clip: &Path, range: RangeArg, lut: &str, dir: &Path) -> anyhow
 
 /// Runs `clip` as `case` says on the firmware and on the host, in `dir`, compares them (results
 /// and outcomes, at least half the rows with a pose), checks that `report.json` has its
-/// figures, and returns the number of frame rows.
-fn check(clip: &Path, case: &Case, dir: &Path) -> anyhow::Result<usize> {
+/// figures, and returns the number of frame rows and the report.
+fn check(clip: &Path, case: &Case, dir: &Path) -> anyhow::Result<(usize, serde_json::Value)> {
     let clip = clip.to_path_buf();
     if dir.exists() {
         std::fs::remove_dir_all(dir)?;
@@ -218,7 +195,7 @@ fn check(clip: &Path, case: &Case, dir: &Path) -> anyhow::Result<usize> {
         let value = report[key].as_u64().unwrap_or(0);
         assert!(value > 0, "report.json: {key} is {}", report[key]);
     }
-    Ok(rows)
+    Ok((rows, report))
 }
 
 /// Every frame's outcome in `Debug` form, from the host's pipeline replaying the packed clip

@@ -161,3 +161,19 @@ pub fn pose_errors(
         yaw.min(angle(result.yaw_alt_deg, truth.yaw_deg)),
     ]
 }
+
+/// Copies the clip folder `from` (clip.json, frames.csv, chips/, masks/) to `to`, replacing
+/// what was there.
+pub fn copy_clip(from: &Path, to: &Path) {
+    let _ = std::fs::remove_dir_all(to);
+    for sub in ["chips", "masks"] {
+        std::fs::create_dir_all(to.join(sub)).unwrap();
+        for entry in std::fs::read_dir(from.join(sub)).unwrap() {
+            let entry = entry.unwrap();
+            std::fs::copy(entry.path(), to.join(sub).join(entry.file_name())).unwrap();
+        }
+    }
+    for file in ["clip.json", "frames.csv"] {
+        std::fs::copy(from.join(file), to.join(file)).unwrap();
+    }
+}

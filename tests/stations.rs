@@ -142,14 +142,14 @@ fn fuse_refuses_what_cannot_be_fused() {
     assert!(error(&[clips[0].clone(), table1]).contains("station"));
     // Another projectile named in B's clip.json.
     let other = dir.join("other-projectile");
-    copy_clip(&clips[1], &other);
+    imade_tests::copy_clip(&clips[1], &other);
     let json = other.join("clip.json");
     let text = std::fs::read_to_string(&json).unwrap();
     std::fs::write(&json, text.replace("ref-1378x80", "rocket-2200x120")).unwrap();
     assert!(error(&[clips[0].clone(), other]).contains("not of one flight"));
     // B's clock a minute later.
     let later = dir.join("later");
-    copy_clip(&clips[1], &later);
+    imade_tests::copy_clip(&clips[1], &later);
     let frames = later.join("frames.csv");
     let text = std::fs::read_to_string(&frames).unwrap();
     let shifted: Vec<String> = text
@@ -166,19 +166,4 @@ fn fuse_refuses_what_cannot_be_fused() {
         .collect();
     std::fs::write(&frames, shifted.join("\n") + "\n").unwrap();
     assert!(error(&[clips[0].clone(), later]).contains("do not overlap"));
-}
-
-/// Copies a clip folder (clip.json, frames.csv, chips/, masks/).
-fn copy_clip(from: &Path, to: &Path) {
-    let _ = std::fs::remove_dir_all(to);
-    for sub in ["chips", "masks"] {
-        std::fs::create_dir_all(to.join(sub)).unwrap();
-        for entry in std::fs::read_dir(from.join(sub)).unwrap() {
-            let entry = entry.unwrap();
-            std::fs::copy(entry.path(), to.join(sub).join(entry.file_name())).unwrap();
-        }
-    }
-    for file in ["clip.json", "frames.csv"] {
-        std::fs::copy(from.join(file), to.join(file)).unwrap();
-    }
 }
