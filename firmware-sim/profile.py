@@ -53,6 +53,11 @@ def demangled(symbols):
     return [re.sub(r"\[[0-9a-f]+\]|<(\d+: usize(, )?)+>", "", name) for name in text.splitlines()]
 
 
+def function_names(addresses, symbol):
+    """The Rust names of the functions the blocks at `addresses` lie in."""
+    return demangled([symbol.get(a, b"?").decode() for a in addresses])
+
+
 def stage_of(path):
     plain = path.lstrip("<")  # `<Type as Trait>::f` is the type's
     for stage, prefixes in STAGES:
@@ -104,21 +109,20 @@ def main():
     total = sum(per_function.values())
     frames = int(sys.argv[1]) if len(sys.argv) > 1 else 1
     print(f"instructions executed: {total} over {frames} frames, {total / frames:,.0f} a frame\n")
-    print("| stage | instructions a frame | share |\n| --- | ---: | ---: |")
-    for stage, n in per_stage.most_common():
-        print(f"| {stage} | {n / frames:,.0f} | {100 * n / total:.1f} % |")
-    print("\n| function | instructions a frame | share |\n| --- | ---: | ---: |")
-    for function, n in per_function.most_common(40):
-        print(f"| `{function}` | {n / frames:,.0f} | {100 * n / total:.1f} % |")
+    def table(heading, rows, name=lambda key: f"`{key}`"):
+        print(f"| {heading} | instructions a frame | share |\n| --- | ---: | ---: |")
+        for key, n in rows:
+            print(f"| {name(key)} | {n / frames:,.0f} | {100 * n / total:.1f} % |")
+
+    table("stage", per_stage.most_common(), name=str)
+    print()
+    table("function", per_function.most_common(40))
     by_caller = collections.Counter()
     callers = list(helped)
-    names = demangled([symbol.get(a, b"?").decode() for a in callers])
-    for address, name in zip(callers, names):
+    for address, name in zip(callers, function_names(callers, symbol)):
         by_caller[name] += helped[address]
-    print("\n| memset, memcpy, software floating point and libm called from | instructions a frame "
-          "| share |\n| --- | ---: | ---: |")
-    for function, n in by_caller.most_common(15):
-        print(f"| `{function}` | {n / frames:,.0f} | {100 * n / total:.1f} % |")
+    print()
+    table("memset, memcpy, software floating point and libm called from", by_caller.most_common(15))
     if len(sys.argv) > 2:
         elf = sys.argv[3] if len(sys.argv) > 3 else None
         write_blocks(sys.argv[2], executed, size, symbol, frames, total, elf)
@@ -129,7 +133,7 @@ def write_blocks(path, executed, size, symbol, frames, total, elf):
     the project's source it was inlined from (`elf`'s debug information)."""
     weight = {a: times * size.get(a, 0) for a, times in executed.items()}
     hottest = sorted(weight, key=weight.get, reverse=True)[:80]
-    names = demangled([symbol.get(a, b"?").decode() for a in hottest])
+    names = function_names(hottest, symbol)
     sources = inlined_from(elf, hottest) if elf else {}
     with open(path, "w") as out:
         out.write("| block | function | inlined from (innermost first) | instructions | runs a frame "
