@@ -28,7 +28,7 @@ use corridor::CorridorConfig;
 pub use gate::{TrackGate, TrackUse};
 use label::{LabelError, Labeler, Moments, Rect};
 pub use select::UNIFORM_BAR_HALF_SDS;
-use select::{Candidate, Selection, Shape};
+use select::{Candidate, Selection, Shape, Spread};
 pub use select::{ExpectedBody, Proportions, SizeTolerance};
 use terrain::TerrainConfig;
 
@@ -797,13 +797,11 @@ impl<
         self.labeler
             .components()
             .filter(|(_, m)| m.class == other)
-            .map(|(_, m)| (m, Shape::of(m)))
-            .filter(|(_, p)| 2.0 * UNIFORM_BAR_HALF_SDS * p.major_sd <= longest_px)
-            .max_by(|(a, _), (b, _)| {
-                libm::fabsf(a.sum_residual).total_cmp(&libm::fabsf(b.sum_residual))
-            })
-            .filter(|(m, _)| significance(m) >= bar_config.plume_min_sigma)
-            .map(|(_, p)| p)
+            .map(|(_, m)| m)
+            .filter(|m| 2.0 * UNIFORM_BAR_HALF_SDS * Spread::of(m).major_sd <= longest_px)
+            .max_by(|a, b| libm::fabsf(a.sum_residual).total_cmp(&libm::fabsf(b.sum_residual)))
+            .filter(|m| significance(m) >= bar_config.plume_min_sigma)
+            .map(Shape::of)
     }
 
     /// The selection score of `bar` as the body ([`select`]'s terms: its significance, its

@@ -29,17 +29,29 @@ pub struct Shape {
     pub minor_sd: f32,
 }
 
-impl Shape {
-    /// The shape of a set of moments.
-    pub fn of(m: &Moments) -> Shape {
-        let (xx, yy, xy) = m.covariance();
+/// How far a set of moments spreads along and across its major axis: [`Shape`] without the
+/// centroid and the axis, whose trigonometry (`atan2f`, `cosf`, `sinf`: `f64` inside libm,
+/// software floating point on the Cortex-M4F) the size tests on every candidate do not need.
+#[derive(Debug, Clone, Copy)]
+pub struct Spread {
+    /// Standard deviation along the major axis, px.
+    pub major_sd: f32,
+    /// Standard deviation across it, px.
+    pub minor_sd: f32,
+}
+
+impl Spread {
+    /// The spread of a set of moments.
+    pub fn of(m: &Moments) -> Spread {
+        Self::of_covariance(m.covariance())
+    }
+
+    /// The spread of central second moments `(xx, yy, xy)`, px².
+    fn of_covariance((xx, yy, xy): (f32, f32, f32)) -> Spread {
         let half_diff = 0.5 * (xx - yy);
         let root = libm::sqrtf(half_diff * half_diff + xy * xy);
         let mean = 0.5 * (xx + yy);
-        let angle = 0.5 * libm::atan2f(2.0 * xy, xx - yy);
-        Shape {
-            centre: m.centroid(),
-            axis: ImagePoint::new(libm::cosf(angle), libm::sinf(angle)),
+        Spread {
             major_sd: libm::sqrtf((mean + root).max(0.0)),
             minor_sd: libm::sqrtf((mean - root).max(1.0 / 12.0)),
         }
@@ -48,6 +60,30 @@ impl Shape {
     /// Major over minor standard deviation (1 for a disc).
     pub fn elongation(&self) -> f32 {
         self.major_sd / self.minor_sd.max(1e-3)
+    }
+}
+
+impl Shape {
+    /// The shape of a set of moments.
+    pub fn of(m: &Moments) -> Shape {
+        let (xx, yy, xy) = m.covariance();
+        let Spread { major_sd, minor_sd } = Spread::of_covariance((xx, yy, xy));
+        let angle = 0.5 * libm::atan2f(2.0 * xy, xx - yy);
+        Shape {
+            centre: m.centroid(),
+            axis: ImagePoint::new(libm::cosf(angle), libm::sinf(angle)),
+            major_sd,
+            minor_sd,
+        }
+    }
+
+    /// Major over minor standard deviation (1 for a disc).
+    pub fn elongation(&self) -> f32 {
+        Spread {
+            major_sd: self.major_sd,
+            minor_sd: self.minor_sd,
+        }
+        .elongation()
     }
 
     /// How far it reaches from its centroid along unit vector `dir`, px: the half-length of
@@ -121,9 +157,9 @@ impl ExpectedBody {
     /// Whether a component of these `moments` has the body's size, within `tolerance`: its
     /// width and length are those of a uniform bar with its standard deviations.
     pub fn fits(&self, moments: &Moments, tolerance: &SizeTolerance) -> bool {
-        let shape = Shape::of(moments);
-        let width = 2.0 * UNIFORM_BAR_HALF_SDS * shape.minor_sd;
-        let length = 2.0 * UNIFORM_BAR_HALF_SDS * shape.major_sd;
+        let spread = Spread::of(moments);
+        let width = 2.0 * UNIFORM_BAR_HALF_SDS * spread.minor_sd;
+        let length = 2.0 * UNIFORM_BAR_HALF_SDS * spread.major_sd;
         width >= tolerance.min_width * self.diameter_px
             && width <= tolerance.max_width * self.span_px + tolerance.margin_px
             && length <= tolerance.max_length * self.length_px + tolerance.margin_px
@@ -135,7 +171,7 @@ impl ExpectedBody {
     /// the body's diameter plus `margin_px` (the blur and the threshold's reach beyond the
     /// edge), falling with the square of the log of the ratio, `weight` per unit of it.
     pub fn width_agreement(&self, moments: &Moments, margin_px: f32, weight: f32) -> f32 {
-        let width = 2.0 * UNIFORM_BAR_HALF_SDS * Shape::of(moments).minor_sd;
+        let width = 2.0 * UNIFORM_BAR_HALF_SDS * Spread::of(moments).minor_sd;
         let ratio = libm::logf(width.max(1e-3) / (self.diameter_px + margin_px).max(1e-3));
         -weight * ratio * ratio
     }
@@ -158,9 +194,8 @@ pub struct Selection {
 fn score(c: &Candidate, sigma: f32, aim: ImagePoint, chip_diag: f32) -> f32 {
     let m = &c.moments;
     let significance = m.sum_residual.abs() / (sigma.max(1e-3) * libm::sqrtf(m.n as f32));
-    let shape = Shape::of(m);
-    significance_and_nearness(significance, shape.centre, aim, chip_diag)
-        + 0.5 * libm::logf(shape.elongation())
+    significance_and_nearness(significance, m.centroid(), aim, chip_diag)
+        + 0.5 * libm::logf(Spread::of(m).elongation())
 }
 
 /// The selection's score terms of a candidate of `significance` (noise sigmas) centred at
@@ -182,7 +217,7 @@ fn more_body_like(c: &Candidate, other: &Candidate, polarity: Option<BodyPolarit
     match polarity {
         Some(BodyPolarity::Dark) => c.moments.mean_value() < other.moments.mean_value(),
         Some(BodyPolarity::Bright) => c.moments.mean_value() > other.moments.mean_value(),
-        None => Shape::of(&c.moments).elongation() > Shape::of(&other.moments).elongation(),
+        None => Spread::of(&c.moments).elongation() > Spread::of(&other.moments).elongation(),
     }
 }
 
@@ -230,9 +265,9 @@ pub fn select(
     let (_, mut main) = best?;
     if let Some((_, other)) = second {
         let reach = 2.0
-            * Shape::of(&main.moments)
+            * Spread::of(&main.moments)
                 .major_sd
-                .max(Shape::of(&other.moments).major_sd);
+                .max(Spread::of(&other.moments).major_sd);
         if adjacent(&main.moments, &other.moments, reach) && more_body_like(other, main, polarity) {
             main = other;
         }
@@ -253,7 +288,7 @@ pub fn select(
         let (along, across) = shape.line().local(centroid.x, centroid.y);
         let lateral_limit = (3.0 * shape.minor_sd).max(2.0);
         // The gap between the two pieces' extents along the axis.
-        let fragment_half_length = UNIFORM_BAR_HALF_SDS * Shape::of(&c.moments).major_sd;
+        let fragment_half_length = UNIFORM_BAR_HALF_SDS * Spread::of(&c.moments).major_sd;
         let gap = along.abs() - half_length - fragment_half_length;
         let on_axis = across.abs() <= lateral_limit && gap <= half_length.max(6.0);
         if on_axis && selection.parts.push(c.label).is_ok() {
@@ -261,4 +296,35 @@ pub fn select(
         }
     }
     Some(selection)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A bar of 6 x 2 pixels (x 20..=25 on rows 10 and 11): as a uniform bar, its standard
+    /// deviations are sqrt(3) along (variance (6² - 1) / 12 plus a pixel's 1/12) and
+    /// sqrt(1/3) across ((2² - 1) / 12 + 1/12), so that the bar's half-sds give back its 6 px
+    /// length and 2 px width.
+    #[test]
+    fn a_bar_spreads_as_its_pixels_and_lies_along_x() {
+        let mut bar = Moments::empty(-1);
+        for y in [10, 11] {
+            bar.add_run(y, 20, 25, 0.0, 0);
+        }
+        let spread = Spread::of(&bar);
+        assert!((spread.major_sd - libm::sqrtf(3.0)).abs() < 1e-5);
+        assert!((spread.minor_sd - libm::sqrtf(1.0 / 3.0)).abs() < 1e-5);
+        assert!((spread.elongation() - 3.0).abs() < 1e-4);
+        assert!((2.0 * UNIFORM_BAR_HALF_SDS * spread.major_sd - 6.0).abs() < 1e-3);
+        assert!((2.0 * UNIFORM_BAR_HALF_SDS * spread.minor_sd - 2.0).abs() < 1e-3);
+        // The shape adds the centroid and the axis to the same spread.
+        let shape = Shape::of(&bar);
+        assert_eq!(
+            (shape.major_sd, shape.minor_sd),
+            (spread.major_sd, spread.minor_sd)
+        );
+        assert!((shape.centre.x - 22.5).abs() < 1e-5 && (shape.centre.y - 10.5).abs() < 1e-5);
+        assert!((shape.axis.x.abs() - 1.0).abs() < 1e-6 && shape.axis.y.abs() < 1e-6);
+    }
 }
