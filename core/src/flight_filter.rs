@@ -73,7 +73,10 @@ pub struct FlightFilterConfig {
     pub acceleration_psd: f32,
     /// Spectral density of the white jerk that changes the along-track acceleration, m²/s⁵.
     pub along_jerk_psd: f32,
-    /// One sigma of the line of sight, px of the chip (the body origin's place).
+    /// One sigma of the line of sight that the image does not measure, px of the chip: the
+    /// mount's pointing (encoders, timing) and the air's tilt. The pipeline adds the body
+    /// origin's place in the chip from the frame's own end sigmas (0.1-0.4 px on a clear sky,
+    /// 1-4 px among clouds). 0.7 px is 7 microradians (1.4 arcsec) at fx = 100,000 px.
     pub sight_sd_px: f32,
     /// An image range is weighted as if its one sigma were at least this fraction of it ...
     pub min_range_fraction: f32,
@@ -117,7 +120,7 @@ impl FlightFilterConfig {
         gravity_m_s2: 9.80665,
         acceleration_psd: 0.001,
         along_jerk_psd: 0.1,
-        sight_sd_px: 1.0,
+        sight_sd_px: 0.7,
         min_range_fraction: 0.02,
         range_bias_sd: 0.03,
         range_bias_psd: 1e-5,

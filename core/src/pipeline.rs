@@ -224,6 +224,7 @@ impl<
         let prediction = self.temporal.predict(input.time_s, &self.config.temporal);
         let gate = self.track.gate(input.time_s, &self.config.track);
         let measured = self.measure(&input, &prediction, gate);
+        let end_sd = measured.as_ref().ok().map(|(_, m)| self.end_sd(m));
         let observation = measured.as_ref().ok().map(|(_, m)| Observation {
             image_range_m: m.image_range_m(),
             nose_dir: m
@@ -237,7 +238,7 @@ impl<
             sight: input
                 .mount
                 .filter(|_| input.sensor_range_m.is_none())
-                .and_then(|mount| self.sight(m, &mount)),
+                .and_then(|mount| self.sight(m, &mount, end_sd)),
             range_held: m.hypothesis.from_flight,
         });
         let estimate = self.temporal.update(
@@ -248,25 +249,11 @@ impl<
         );
         self.range_step = self.temporal.range_step(prediction.t);
         self.frame_t = Some(prediction.t);
-        let (target, measurement, estimate) = match (measured, estimate) {
-            (Ok((target, m)), Some(estimate)) => (target, m, estimate),
-            (Err(e), _) => return FrameResult::from_error(e),
-            (Ok(_), None) => return FrameResult::from_error(FrameError::Unmeasurable),
+        let (target, measurement, estimate, end_sd) = match (measured, estimate, end_sd) {
+            (Ok((target, m)), Some(estimate), Some(end_sd)) => (target, m, estimate, end_sd),
+            (Err(e), _, _) => return FrameResult::from_error(e),
+            (Ok(_), _, _) => return FrameResult::from_error(FrameError::Unmeasurable),
         };
-        let end_sd = measurement
-            .fitted
-            .and_then(|f| {
-                let diameter_px = measurement.hypothesis.silhouette.diameter_px;
-                uncertainty::fitted_end_sd(&f, diameter_px, &self.config.uncertainty)
-            })
-            .unwrap_or_else(|| {
-                uncertainty::end_sd(
-                    &measurement.hypothesis.silhouette,
-                    self.detect.background().sigma(),
-                    measurement.matched.as_ref().map(|m| m.matched.rms_px),
-                    &self.config.uncertainty,
-                )
-            });
         let result = self.result(&measurement, &estimate, end_sd, target.track);
         // Finite but extreme intrinsics or ranges can overflow the geometry, or underflow the
         // depth to the camera's plane (found by fuzzing): such a pose is no pose.
@@ -465,11 +452,31 @@ impl<
         Some(Flight::new(&velocity, &mount, &self.camera, middle))
     }
 
+    /// One sigma of the silhouette's ends in `measurement`: the grey-level fit's where it ran,
+    /// else the silhouette's ([`uncertainty::end_sd`]).
+    fn end_sd(&self, measurement: &Measurement) -> EndSd {
+        measurement
+            .fitted
+            .and_then(|f| {
+                let diameter_px = measurement.hypothesis.silhouette.diameter_px;
+                uncertainty::fitted_end_sd(&f, diameter_px, &self.config.uncertainty)
+            })
+            .unwrap_or_else(|| {
+                uncertainty::end_sd(
+                    &measurement.hypothesis.silhouette,
+                    self.detect.background().sigma(),
+                    measurement.matched.as_ref().map(|m| m.matched.rms_px),
+                    &self.config.uncertainty,
+                )
+            })
+    }
+
     /// The line of sight to the body origin of `measured` in the world frame, the camera
     /// pointed as `mount`: the origin's direction, which the range does not change (it is
-    /// solved at the image range), with the sight's sigma of
-    /// [`crate::flight_filter::FlightFilterConfig::sight_sd_px`].
-    fn sight(&self, measured: &Measurement, mount: &Mount) -> Option<Sight> {
+    /// solved at the image range), with its sigma: the pointing's
+    /// ([`crate::flight_filter::FlightFilterConfig::sight_sd_px`]) and the origin's place in the
+    /// chip from the ends' sigmas `end_sd` (their mean over the two directions), together.
+    fn sight(&self, measured: &Measurement, mount: &Mount, end_sd: Option<EndSd>) -> Option<Sight> {
         let range_m = measured.image_range_m()?;
         let [x, y, z] = measured
             .at_range(&self.camera, &self.model, range_m)
@@ -478,7 +485,12 @@ impl<
             * nalgebra::Vector3::new(f64::from(x), f64::from(y), f64::from(z));
         let dir = dir.try_normalize(0.0)?;
         let focal = f64::from(self.camera.fx.min(self.camera.fy));
-        let sd_rad = f64::from(self.config.temporal.flight.sight_sd_px) / focal;
+        let pointing_px = self.config.temporal.flight.sight_sd_px;
+        let place_px = end_sd.map_or(0.0, |sd| {
+            libm::sqrtf(0.5 * (sd.along_px * sd.along_px + sd.across_px * sd.across_px))
+        });
+        let sd_px = libm::sqrtf(pointing_px * pointing_px + place_px * place_px);
+        let sd_rad = f64::from(sd_px) / focal;
         Some(Sight {
             station_enu_m: self.station.enu_m,
             dir_enu: [dir.x, dir.y, dir.z],
