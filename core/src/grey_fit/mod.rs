@@ -180,6 +180,14 @@ pub struct GreyFitConfig {
     /// tail have only the outline to fit (an outside renderer's 8-10 px shell: Tz 12.1 -> 3.2
     /// m/km), and a wide body's width fixes its scale (the shell at 21 px: 0.1-0.2 %).
     pub wide_body_sigmas: f32,
+    /// ... or one narrower than this many px (a pixel is a fifth of its diameter, which trades
+    /// against the blur: the table match's scale read 3-5 % short on a 4-6 px body at a 0.6 px
+    /// blur) ...
+    pub narrow_body_px: f32,
+    /// ... that spans at least this many blur sigmas (its base and fins, which carry the scale,
+    /// are resolved: an outside renderer's 4.7 px body under a 1.2 px blur, 3.8 sigmas, fitted
+    /// its scale 3-7 % long).
+    pub sharp_body_sigmas: f32,
     /// Where the glow is fitted, the window reaches this many blur sigmas beyond the base (the
     /// blurred edge between the body and the plume; the plume beyond is left out).
     pub plume_margin_sigmas: f32,
@@ -207,6 +215,8 @@ impl GreyFitConfig {
         max_scale_change: 0.15,
         max_shift_px: 8.0,
         wide_body_sigmas: 12.0,
+        narrow_body_px: 5.0,
+        sharp_body_sigmas: 5.0,
         plume_margin_sigmas: 1.0,
         sky_bin_diameters: 1.0,
         flight_tilt_sd_deg: 3.0,
@@ -864,8 +874,11 @@ pub fn fit<const C: usize>(
         )
     };
     // Whether the scale is fitted (range unknown). NaN-safe: a NaN threshold makes no body wide.
-    let wide = model.diameter_m * start.px_per_m >= config.wide_body_sigmas * sigma;
-    let fit_scale = input.range_m.is_none() && (wide || model.fins().is_none());
+    let diameter_px = model.diameter_m * start.px_per_m;
+    let wide = diameter_px >= config.wide_body_sigmas * sigma;
+    let narrow =
+        diameter_px < config.narrow_body_px && diameter_px >= config.sharp_body_sigmas * sigma;
+    let fit_scale = input.range_m.is_none() && (wide || narrow || model.fins().is_none());
     let problem_at = |start: Frame, window: Window| GreyProblem::<C> {
         input,
         model,
