@@ -95,7 +95,7 @@ enum ConfigSpec {
         uncertainty: [f32; 10],
         /// The grey-level fit: whether it runs, then its tunables (pixels, roll starts,
         /// iterations, the rest in field order).
-        grey_fit: (bool, u16, u8, u8, u8, [f32; 11]),
+        grey_fit: (bool, u16, u8, u8, u8, [f32; 13]),
         /// Every tunable of the bar search, in its field order (None: no bar search).
         bar: Option<[f32; 18]>,
         /// Every tunable of the sky corridor, in its field order (None: the tiles' sky).
@@ -359,9 +359,11 @@ fn config(spec: &ConfigSpec) -> Config {
                 max_shift_px: g.5[5],
                 orientation_margin: g.5[6],
                 wide_body_sigmas: g.5[7],
-                plume_margin_sigmas: g.5[8],
-                sky_bin_diameters: g.5[9],
-                flight_tilt_sd_deg: g.5[10],
+                narrow_body_px: g.5[8],
+                sharp_body_sigmas: g.5[9],
+                plume_margin_sigmas: g.5[10],
+                sky_bin_diameters: g.5[11],
+                flight_tilt_sd_deg: g.5[12],
             },
             track: TrackConfig {
                 gate_px: t[0],
