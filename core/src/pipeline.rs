@@ -238,7 +238,8 @@ impl<
             sight: input
                 .mount
                 .filter(|_| input.sensor_range_m.is_none())
-                .and_then(|mount| self.sight(m, &mount, end_sd)),
+                .zip(end_sd)
+                .and_then(|(mount, end_sd)| self.sight(m, &mount, &end_sd)),
             range_held: m.hypothesis.from_flight,
         });
         let estimate = self.temporal.update(
@@ -476,7 +477,7 @@ impl<
     /// solved at the image range), with its sigma: the pointing's
     /// ([`crate::flight_filter::FlightFilterConfig::sight_sd_px`]) and the origin's place in the
     /// chip from the ends' sigmas `end_sd` (their mean over the two directions), together.
-    fn sight(&self, measured: &Measurement, mount: &Mount, end_sd: Option<EndSd>) -> Option<Sight> {
+    fn sight(&self, measured: &Measurement, mount: &Mount, end_sd: &EndSd) -> Option<Sight> {
         let range_m = measured.image_range_m()?;
         let [x, y, z] = measured
             .at_range(&self.camera, &self.model, range_m)
@@ -486,9 +487,8 @@ impl<
         let dir = dir.try_normalize(0.0)?;
         let focal = f64::from(self.camera.fx.min(self.camera.fy));
         let pointing_px = self.config.temporal.flight.sight_sd_px;
-        let place_px = end_sd.map_or(0.0, |sd| {
-            libm::sqrtf(0.5 * (sd.along_px * sd.along_px + sd.across_px * sd.across_px))
-        });
+        let (along, across) = (end_sd.along_px, end_sd.across_px);
+        let place_px = libm::sqrtf(0.5 * (along * along + across * across));
         let sd_px = libm::sqrtf(pointing_px * pointing_px + place_px * place_px);
         let sd_rad = f64::from(sd_px) / focal;
         Some(Sight {
