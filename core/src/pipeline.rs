@@ -415,6 +415,8 @@ impl<
                 background: self.detect.background(),
                 origin,
                 range_m: hypothesis.fixed_range_m,
+                range_sensed: hypothesis.sensor_range_m().is_some(),
+                nose_towards: prediction.nose_away.map(|away| !away),
                 plume_at_tail: hypothesis.silhouette.plume_at_tail,
                 cluttered_sky: self.detect.background().follows_corridor(),
                 flight_tilt_deg: flight.and_then(|f| f.tilt_deg()),

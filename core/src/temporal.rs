@@ -114,6 +114,9 @@ pub struct Prediction {
     /// The flight filter's range for this frame and its sigma, where it is sure enough to hold
     /// the image's scale at ([`FlightFilterConfig::hold_fraction`]).
     pub held_range: Option<RangeReading>,
+    /// Whether the nose points away from the camera, as the last resolved yaw choice had it
+    /// (None before any).
+    pub nose_away: Option<bool>,
 }
 
 /// One frame's observation for the temporal state.
@@ -282,6 +285,7 @@ impl Temporal {
             nose_dir: self.nose_dir,
             range_m,
             held_range,
+            nose_away: self.last_away,
         }
     }
 

@@ -95,7 +95,7 @@ enum ConfigSpec {
         uncertainty: [f32; 10],
         /// The grey-level fit: whether it runs, then its tunables (pixels, roll starts,
         /// iterations, the rest in field order).
-        grey_fit: (bool, u16, u8, u8, u8, [f32; 13]),
+        grey_fit: (bool, u16, u8, u8, u8, [f32; 14]),
         /// Every tunable of the bar search, in its field order (None: no bar search).
         bar: Option<[f32; 18]>,
         /// Every tunable of the sky corridor, in its field order (None: the tiles' sky).
@@ -364,6 +364,7 @@ fn config(spec: &ConfigSpec) -> Config {
                 plume_margin_sigmas: g.5[10],
                 sky_bin_diameters: g.5[11],
                 flight_tilt_sd_deg: g.5[12],
+                fin_faces_min_contrast_sigmas: g.5[13],
             },
             track: TrackConfig {
                 gate_px: t[0],

@@ -1,15 +1,19 @@
 //! The body's image: an outline filled with a shaded radiance and blurred by the optics.
 //!
 //! Across each column of the [`Outline`], between its lower edge `a` and upper edge `b`, the
-//! body's contrast against the sky is a quadratic in `w = (v - m) / h` (`m` the column's middle,
-//! `h` its half width): `c0 + c1 w + c2 w²`. It stands for Lambertian shading, which is linear
-//! in the surface normal: the normal's component across the axis is `w` on a cylinder, and
-//! `w²` follows the darkening towards the limbs. The optics blur it with an isotropic Gaussian of
-//! `sigma` (the lens's PSF and the pixel's own width together). Across the column the blurred
-//! contrast is exact, from the normal's CDF and density at the two edges (the moments of a
-//! truncated normal); along the axis it is the sum over the columns within `REACH` sigmas,
-//! weighted by the Gaussian. The image is linear in `c0, c1, c2`, so it is handed over as their
-//! three coefficients.
+//! body's contrast against the sky is a quadratic in `w`, the surface normal's part across the
+//! axis: `c0 + c1 w + c2 w²`. It stands for Lambertian shading, which is linear in the surface
+//! normal: over the body's own stretch of the column (its edges without the fins,
+//! [`Outline::body_edges`]) `w = (v - m) / h` (`m` the body's middle there, `h` its half width),
+//! as on a cylinder, and `w²` follows the darkening towards the limbs; over a fin's face beyond
+//! the body `w` is that face's own ([`Outline::fin_faces`]: a fin is a flat plate whose normal
+//! lies across the axis, so it is as bright as the body where the body turns the same way). An
+//! outline built without the fins apart is shaded as one quadratic across the whole column. The
+//! optics blur it with an isotropic Gaussian of `sigma` (the lens's PSF and the pixel's own width
+//! together). Across the column the blurred contrast is exact, from the normal's CDF and density
+//! at the stretches' edges (the moments of a truncated normal); along the axis it is the sum over
+//! the columns within `REACH` sigmas, weighted by the Gaussian. The image is linear in `c0, c1,
+//! c2`, so it is handed over as their three coefficients.
 
 use super::outline::Outline;
 use crate::math::normal;
@@ -25,21 +29,79 @@ pub fn contrast(shading: [f32; 3], basis: [f32; 3]) -> f32 {
     shading[0] * basis[0] + shading[1] * basis[1] + shading[2] * basis[2]
 }
 
+/// An edge across a column, in sigmas from the point, with the normal's CDF and density there.
+#[derive(Debug, Clone, Copy)]
+struct Edge {
+    x: f32,
+    cdf: f32,
+    pdf: f32,
+}
+
+impl Edge {
+    #[inline]
+    fn at(x: f32) -> Edge {
+        let (cdf, pdf) = normal::cdf_pdf(x);
+        Edge { x, cdf, pdf }
+    }
+
+    /// The edge at `x`, `near` itself where it lies there (a stretch of no width).
+    #[inline]
+    fn at_or(x: f32, near: Edge) -> Edge {
+        if x == near.x { near } else { Edge::at(x) }
+    }
+}
+
+/// The blur's weight over one stretch of a column from edge `a` to edge `b`: `∫ phi`,
+/// `∫ x phi` (as `phi(a) - phi(b)`) and `[x phi]` from `a` to `b` (all zero where `b` is not
+/// above `a`).
+#[derive(Debug, Clone, Copy, Default)]
+struct Stretch {
+    m0: f32,
+    m1: f32,
+    n1: f32,
+}
+
+impl Stretch {
+    /// Adds `stretch` weighted by `weight`.
+    fn add(&mut self, stretch: &Stretch, weight: f32) {
+        self.m0 += weight * stretch.m0;
+        self.m1 += weight * stretch.m1;
+        self.n1 += weight * stretch.n1;
+    }
+
+    #[inline]
+    fn between(a: Edge, b: Edge) -> Stretch {
+        if b.x <= a.x {
+            return Stretch::default();
+        }
+        Stretch {
+            m0: b.cdf - a.cdf,
+            m1: a.pdf - b.pdf,
+            n1: b.x * b.pdf - a.x * a.pdf,
+        }
+    }
+}
+
 /// One column's share of the blurred contrast at a point.
 struct Share {
     /// The Gaussian's weight along the axis, and the column's offset from the point in sigmas.
     weight: f32,
     along: f32,
-    /// The edges' offsets from the point across, in sigmas, and the normal's density there.
+    /// The whole column.
+    whole: Stretch,
+    /// The fins' faces' stretches summed, weighted by their `w` and by `w²`.
+    faces: [Stretch; 2],
+    /// The body's edges' offsets from the point across, in sigmas, and the normal's density
+    /// there (all zero where only fins cross the column).
     alpha: f32,
     beta: f32,
     pdf_a: f32,
     pdf_b: f32,
-    /// Moments of the blur's weight over the column: `∫ x^k phi(x) dx` over `alpha..beta`.
+    /// Moments of the blur's weight over the body: `∫ x^k phi(x) dx` over `alpha..beta`.
     m0: f32,
     m1: f32,
     m2: f32,
-    /// The point's place across the column in half widths, the blur in half widths, and the
+    /// The point's place across the body in its half widths, the blur in half widths, and the
     /// half width, m.
     w: f32,
     s: f32,
@@ -48,6 +110,7 @@ struct Share {
 
 impl Share {
     /// Column `j`'s share at `(u, v)` for blur `sigma`, m; None where it adds nothing.
+    #[inline]
     fn of<const C: usize>(
         outline: &Outline<C>,
         j: usize,
@@ -57,40 +120,80 @@ impl Share {
     ) -> Option<Share> {
         let (lower, upper) = outline.edges(j)?;
         let inv_sigma = 1.0 / sigma;
-        let (alpha, beta) = ((lower - v) * inv_sigma, (upper - v) * inv_sigma);
+        let in_sigmas = |edge: f32| (edge - v) * inv_sigma;
+        let (alpha, beta) = (in_sigmas(lower), in_sigmas(upper));
         if alpha > EDGE_REACH || beta < -EDGE_REACH {
             // Beyond the column's reach across: nothing of it is blurred this far.
             return None;
         }
         let along = (outline.u_m(j) - u) * inv_sigma;
-        let (cdf_a, pdf_a) = normal::cdf_pdf(alpha);
-        let (cdf_b, pdf_b) = normal::cdf_pdf(beta);
-        let m0 = cdf_b - cdf_a;
-        let half = (0.5 * (upper - lower)).max(f32::MIN_POSITIVE);
-        Some(Share {
+        let (bottom, top) = (Edge::at(alpha), Edge::at(beta));
+        let mut share = Share {
             weight: normal::pdf(along),
             along,
-            alpha,
-            beta,
-            pdf_a,
-            pdf_b,
+            whole: Stretch::between(bottom, top),
+            faces: [Stretch::default(); 2],
+            alpha: 0.0,
+            beta: 0.0,
+            pdf_a: 0.0,
+            pdf_b: 0.0,
+            m0: 0.0,
+            m1: 0.0,
+            m2: 0.0,
+            w: 0.0,
+            s: 0.0,
+            half: 1.0,
+        };
+        // The body's own stretch (none where only fins cross the column) and the fins' faces
+        // beyond it, their edges shared where they meet.
+        let Some((body_lower, body_upper)) = outline.body_edges(j) else {
+            return Some(share);
+        };
+        let a = Edge::at_or(in_sigmas(body_lower), bottom);
+        let b = Edge::at_or(in_sigmas(body_upper), top);
+        if let Some([front_above, outer_above, front_below, outer_below]) = outline.fin_faces(j) {
+            let split_above = Edge::at_or(in_sigmas(front_above.upper), b);
+            let split_below = Edge::at_or(in_sigmas(front_below.lower), a);
+            for (stretch, w) in [
+                (Stretch::between(b, split_above), front_above.w),
+                (Stretch::between(split_above, top), outer_above.w),
+                (Stretch::between(split_below, a), front_below.w),
+                (Stretch::between(bottom, split_below), outer_below.w),
+            ] {
+                share.faces[0].add(&stretch, w);
+                share.faces[1].add(&stretch, w * w);
+            }
+        }
+        let m0 = b.cdf - a.cdf;
+        let half = (0.5 * (body_upper - body_lower)).max(f32::MIN_POSITIVE);
+        Some(Share {
+            alpha: a.x,
+            beta: b.x,
+            pdf_a: a.pdf,
+            pdf_b: b.pdf,
             m0,
-            m1: pdf_a - pdf_b,
-            m2: m0 - (beta * pdf_b - alpha * pdf_a),
-            w: (v - 0.5 * (upper + lower)) / half,
+            m1: a.pdf - b.pdf,
+            m2: m0 - (b.x * b.pdf - a.x * a.pdf),
+            w: (v - 0.5 * (body_upper + body_lower)) / half,
             s: sigma / half,
             half,
+            ..share
         })
     }
 
-    /// The column's blurred `1, w, w²` (before the weight).
+    /// The column's blurred `1, w, w²` (before the weight): `1` over the column, `w` and `w²`
+    /// across the body and at each fin face's own `w`.
+    #[inline]
     fn terms(&self) -> [f32; 3] {
         let (w, s) = (self.w, self.s);
-        [
-            self.m0,
+        let mut terms = [
+            self.whole.m0,
             w * self.m0 + s * self.m1,
             w * w * self.m0 + 2.0 * w * s * self.m1 + s * s * self.m2,
-        ]
+        ];
+        terms[1] += self.faces[0].m0;
+        terms[2] += self.faces[1].m0;
+        terms
     }
 }
 
@@ -159,21 +262,23 @@ pub fn body_image<const C: usize>(
         let n2 = (1.0 - b * b) * c.pdf_b - (1.0 - a * a) * c.pdf_a;
         let q = b * b * c.pdf_b - a * a * c.pdf_a;
         let r = (1.0 - b * b) * b * c.pdf_b - (1.0 - a * a) * a * c.pdf_a;
+        // The fins' faces: stretches of a fixed `w` whose edges move as the body's do.
+        let [by_w, by_w2] = c.faces;
         // Across (the edges move by -1/sigma in sigmas, w by 1/h).
         let across = [
-            m1 * inv_sigma,
-            m0 / h + (w * m1 - s * n1) * inv_sigma,
+            c.whole.m1 * inv_sigma,
+            m0 / h + (w * m1 - s * n1 + by_w.m1) * inv_sigma,
             2.0 * w / h * m0
                 + 2.0 * s / h * m1
-                + (w * w * m1 - 2.0 * w * s * n1 + s * s * (m1 + n2)) * inv_sigma,
+                + (w * w * m1 - 2.0 * w * s * n1 + s * s * (m1 + n2) + by_w2.m1) * inv_sigma,
         ];
         // In the blur (the edges in sigmas shrink, s grows by 1/h).
         let blur = [
-            -n1 * inv_sigma,
-            m1 / h - (w * n1 + s * q) * inv_sigma,
+            -c.whole.n1 * inv_sigma,
+            m1 / h - (w * n1 + s * q + by_w.n1) * inv_sigma,
             2.0 * w / h * m1
                 + 2.0 * s / h * m2
-                + (-w * w * n1 - 2.0 * w * s * q + s * s * (r - n1)) * inv_sigma,
+                + (-w * w * n1 - 2.0 * w * s * q + s * s * (r - n1) - by_w2.n1) * inv_sigma,
         ];
         // The weight phi((u_j - u) / sigma) in u and in sigma.
         let x = c.along;
@@ -195,6 +300,7 @@ pub fn body_image<const C: usize>(
 
 #[cfg(test)]
 mod tests {
+    use super::super::outline::NOSE_AWAY;
     use super::*;
     use crate::lut::render::View;
     use crate::model::testing::reference;
@@ -204,7 +310,7 @@ mod tests {
             tilt_deg: 0.0,
             roll_deg: 0.0,
         };
-        Outline::build(&reference(), &view, 500).unwrap()
+        Outline::build(&reference(), &view, 500, NOSE_AWAY).unwrap()
     }
 
     /// Mid-body, far from the ends, the blur across a uniform cylinder of radius 40 mm is
@@ -252,7 +358,7 @@ mod tests {
             tilt_deg: 25.0,
             roll_deg: 30.0,
         };
-        let outline = Outline::<512>::build(&reference(), &view, 500).unwrap();
+        let outline = Outline::<512>::build(&reference(), &view, 500, NOSE_AWAY).unwrap();
         let shading = [-120.0, 20.0, -15.0];
         let contrast =
             |u: f32, v: f32, sigma: f32| contrast(shading, body_basis(&outline, u, v, sigma));

@@ -177,6 +177,18 @@ const ZERO_ANGLE: (f32, f32) = (0.0, 1.0);
 /// frame (m): the ellipse of every profile station's cross-section, the quads between
 /// consecutive stations, and each fin's planform.
 pub fn for_each_triangle(model: &ProjectileModel, view: &View, mut f: impl FnMut([(f32, f32); 3])) {
+    for_each_part(model, view, |t, _| f(t));
+}
+
+/// [`for_each_triangle`], telling `f` also whose the triangle is: the body's (None, every body
+/// triangle before the first fin's) or a fin's, as the sine and cosine of its angle `psi` around
+/// the axis from `+v` towards `n x v` (`v = r cos psi`; the line of sight's part of the radius,
+/// away from the camera, is `r sin psi cos(tilt)`).
+pub fn for_each_part(
+    model: &ProjectileModel,
+    view: &View,
+    mut f: impl FnMut([(f32, f32); 3], Option<(f32, f32)>),
+) {
     let beta = view.tilt_deg * RAD;
     let sc = (libm::sinf(beta), libm::cosf(beta));
     let half = 0.5 * model.length_m;
@@ -199,7 +211,10 @@ pub fn for_each_triangle(model: &ProjectileModel, view: &View, mut f: impl FnMut
         if r > 0.0 && ellipses {
             for pair in around.windows(2) {
                 if let [from, to] = pair {
-                    f([centre, project(sc, x, r, *from), project(sc, x, r, *to)]);
+                    f(
+                        [centre, project(sc, x, r, *from), project(sc, x, r, *to)],
+                        None,
+                    );
                 }
             }
         }
@@ -208,8 +223,8 @@ pub fn for_each_triangle(model: &ProjectileModel, view: &View, mut f: impl FnMut
             let b = project(sc, x, r, ZERO_ANGLE);
             let c = project(sc, x, -r, ZERO_ANGLE);
             let d = project(sc, px, -pr, ZERO_ANGLE);
-            f([a, b, c]);
-            f([a, c, d]);
+            f([a, b, c], None);
+            f([a, c, d], None);
         }
         previous = Some((x, r));
     }
@@ -227,8 +242,8 @@ pub fn for_each_triangle(model: &ProjectileModel, view: &View, mut f: impl FnMut
         let b = project(sc, half - root_le, root_radius(root_le), psi);
         let c = project(sc, half - tip_le, fins.tip_radius_m, psi);
         let d = project(sc, half - tip_te, fins.tip_radius_m, psi);
-        f([a, b, c]);
-        f([a, c, d]);
+        f([a, b, c], Some(psi));
+        f([a, c, d], Some(psi));
     }
 }
 
