@@ -20,7 +20,7 @@
 
 use crate::closed_form::Attitude;
 use crate::extremes::Silhouette;
-use crate::grey_fit::GreyFitted;
+use crate::grey_fit::{FinsSeen, GreyFitted};
 use crate::pose::{attitude_of, nose_direction, wrap_deg};
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -40,19 +40,25 @@ pub struct UncertaintyConfig {
     pub residual_gain: f32,
     /// Where the grey-level fit placed the ends: their sigma over the one of its covariance (the
     /// model's misfit, the sky's texture and the pixels' correlation through the blur, which the
-    /// covariance does not count).
+    /// covariance does not count) ...
     pub fit_gain: f32,
+    /// ... and where it shaded the fins' faces as their own, which leaves less of the model's
+    /// misfit (with 3, table1-test's pitch was within two sigmas in 99.4 % of its frames).
+    pub fit_faces_gain: f32,
     /// ... with at least this many px in quadrature ...
     pub fit_min_end_sd_px: f32,
     /// ... and along the axis at least this many body diameters, in quadrature (the ends'
     /// shading and a plume's glow, which the fit models only roughly).
     pub fit_min_end_sd_diameters: f32,
     /// The roll's sigma: the fit's covariance's times [`UncertaintyConfig::fit_gain`], with at
-    /// least this many deg in quadrature (the fins' thin plates and the body's shading as a
-    /// quadratic, which the fit models only roughly: with 1.5, 91-97 % of the bundled and an
-    /// outside renderer's rolls lie within two sigmas; 5 before the fins' faces were shaded as
-    /// their own) ...
+    /// least this many deg in quadrature where the fit shaded the fins' faces as their own
+    /// (their thin plates and the body's shading as a quadratic, which it models only roughly:
+    /// 91-97 % of the bundled clips' and an outside renderer's rolls with the range known lie
+    /// within two sigmas) ...
     pub fit_min_roll_sd_deg: f32,
+    /// ... and at least this many where it shaded them as the body (under a strong sun that
+    /// turns the roll some 4-9 deg) ...
+    pub fit_min_roll_sd_as_body_deg: f32,
     /// ... and the roll is reported only where that sigma is at most this, deg ...
     pub max_roll_sd_deg: f32,
     /// ... and the body is tilted at least this far out of the image plane, deg: seen
@@ -68,9 +74,11 @@ impl UncertaintyConfig {
         min_end_sd_diameters: 0.08,
         residual_gain: 1.5,
         fit_gain: 3.0,
+        fit_faces_gain: 2.5,
         fit_min_end_sd_px: 0.05,
         fit_min_end_sd_diameters: 0.03,
         fit_min_roll_sd_deg: 1.5,
+        fit_min_roll_sd_as_body_deg: 5.0,
         max_roll_sd_deg: 10.0,
         min_roll_tilt_deg: 5.0,
     };
@@ -127,7 +135,8 @@ pub fn end_sd(
 
 /// One sigma of an end placed by the grey-level fit `fitted` of a body `diameter_px` wide: its
 /// covariance's sigmas of the length and of the axis's angle times
-/// [`UncertaintyConfig::fit_gain`], with [`UncertaintyConfig::fit_min_end_sd_px`] in
+/// [`UncertaintyConfig::fit_gain`] (or [`UncertaintyConfig::fit_faces_gain`] where the fins'
+/// faces were shaded as their own), with [`UncertaintyConfig::fit_min_end_sd_px`] in
 /// quadrature, and along the axis also
 /// [`UncertaintyConfig::fit_min_end_sd_diameters`]; None where the fit has no finite covariance.
 pub fn fitted_end_sd(
@@ -138,9 +147,12 @@ pub fn fitted_end_sd(
     let length_px = (fitted.ends[0] - fitted.ends[1]).norm();
     // Two ends: the length's variance is twice an end's, the angle's twice an end's over the
     // length squared.
-    let along = config.fit_gain * fitted.length_sd_px * core::f32::consts::FRAC_1_SQRT_2;
-    let across =
-        config.fit_gain * fitted.turn_sd_rad * length_px * core::f32::consts::FRAC_1_SQRT_2;
+    let gain = match fitted.fins_seen {
+        FinsSeen::Faces => config.fit_faces_gain,
+        FinsSeen::AsBody | FinsSeen::Barely => config.fit_gain,
+    };
+    let along = gain * fitted.length_sd_px * core::f32::consts::FRAC_1_SQRT_2;
+    let across = gain * fitted.turn_sd_rad * length_px * core::f32::consts::FRAC_1_SQRT_2;
     let floor = config.fit_min_end_sd_px;
     let unmodelled = config.fit_min_end_sd_diameters * diameter_px;
     let sd = EndSd {
@@ -151,13 +163,19 @@ pub fn fitted_end_sd(
 }
 
 /// One sigma of the roll the grey-level fit `fitted` measured, deg: its covariance's times
-/// [`UncertaintyConfig::fit_gain`] with [`UncertaintyConfig::fit_min_roll_sd_deg`] in
-/// quadrature; None where it has none (a model without fins), where it exceeds
+/// [`UncertaintyConfig::fit_gain`] with [`UncertaintyConfig::fit_min_roll_sd_deg`] (or, where
+/// the fins were shaded as the body, [`UncertaintyConfig::fit_min_roll_sd_as_body_deg`]) in
+/// quadrature; None where it has none (a model without fins), where the fins barely showed (a
+/// faint body, a cluttered sky: [`FinsSeen::Barely`]), where it exceeds
 /// [`UncertaintyConfig::max_roll_sd_deg`] or where the fitted tilt is below
 /// [`UncertaintyConfig::min_roll_tilt_deg`].
 pub fn fitted_roll_sd(fitted: &GreyFitted, config: &UncertaintyConfig) -> Option<f32> {
     let gained = config.fit_gain * fitted.roll_sd_deg;
-    let floor = config.fit_min_roll_sd_deg;
+    let floor = match fitted.fins_seen {
+        FinsSeen::Faces => config.fit_min_roll_sd_deg,
+        FinsSeen::AsBody => config.fit_min_roll_sd_as_body_deg,
+        FinsSeen::Barely => return None,
+    };
     let sd = libm::sqrtf(gained * gained + floor * floor);
     (sd <= config.max_roll_sd_deg && fitted.view.tilt_deg >= config.min_roll_tilt_deg).then_some(sd)
 }
@@ -235,6 +253,7 @@ mod tests {
             length_sd_px: 0.1,
             turn_sd_rad: 1e-3,
             roll_sd_deg: 2.0,
+            fins_seen: FinsSeen::Faces,
             view: crate::lut::render::View {
                 tilt_deg: 10.0,
                 roll_deg: 0.0,
@@ -247,7 +266,7 @@ mod tests {
             iterations: 5,
         };
         let config = UncertaintyConfig {
-            fit_gain: 3.0,
+            fit_faces_gain: 3.0,
             fit_min_end_sd_px: 0.1,
             fit_min_end_sd_diameters: 0.03,
             ..UncertaintyConfig::DEFAULT
@@ -263,6 +282,45 @@ mod tests {
             ..fitted
         };
         assert_eq!(fitted_end_sd(&unmeasured, 8.0, &config), None);
+        // Fins shaded as the body: the other gain, 1.5 here.
+        let as_body = GreyFitted {
+            fins_seen: FinsSeen::AsBody,
+            ..fitted
+        };
+        let config_as_body = UncertaintyConfig {
+            fit_gain: 1.5,
+            ..config
+        };
+        let sd = fitted_end_sd(&as_body, 8.0, &config_as_body).unwrap();
+        let g = 0.15 / core::f32::consts::SQRT_2;
+        let across = libm::sqrtf(g * g + 0.01);
+        assert!((sd.across_px - across).abs() < 1e-5, "{sd:?} vs {across}");
+        // The roll: 2 deg times 3, with 1.5 deg in quadrature where the fins' faces were
+        // shaded as their own, 5 where as the body; none beyond 10 deg, nearer broadside than
+        // 5 deg of tilt, or where the fins barely showed.
+        let roll = |f: &GreyFitted| fitted_roll_sd(f, &UncertaintyConfig::DEFAULT);
+        let faces = roll(&fitted).unwrap();
+        assert!((faces - libm::sqrtf(36.0 + 2.25)).abs() < 1e-5, "{faces}");
+        let body = roll(&as_body).unwrap();
+        assert!((body - libm::sqrtf(36.0 + 25.0)).abs() < 1e-5, "{body}");
+        let loose = GreyFitted {
+            roll_sd_deg: 3.2,
+            ..as_body
+        };
+        assert_eq!(roll(&loose), None);
+        let broadside = GreyFitted {
+            view: crate::lut::render::View {
+                tilt_deg: 4.0,
+                roll_deg: 0.0,
+            },
+            ..fitted
+        };
+        assert_eq!(roll(&broadside), None);
+        let barely = GreyFitted {
+            fins_seen: FinsSeen::Barely,
+            ..fitted
+        };
+        assert_eq!(roll(&barely), None);
     }
 
     /// The bound by hand: noise 2, contrast 40, blur 1 px, diameter 8 px:

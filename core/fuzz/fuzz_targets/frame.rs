@@ -92,7 +92,7 @@ enum ConfigSpec {
         /// The follow's tunables, in their field order (None: not followed).
         follow: Option<[f32; 5]>,
         /// Every tunable of the uncertainties, in their field order.
-        uncertainty: [f32; 10],
+        uncertainty: [f32; 12],
         /// The grey-level fit: whether it runs, then its tunables (pixels, roll starts,
         /// iterations, the rest in field order).
         grey_fit: (bool, u16, u8, u8, u8, [f32; 14]),
@@ -344,6 +344,8 @@ fn config(spec: &ConfigSpec) -> Config {
                 fit_min_roll_sd_deg: u[7],
                 max_roll_sd_deg: u[8],
                 min_roll_tilt_deg: u[9],
+                fit_min_roll_sd_as_body_deg: u[10],
+                fit_faces_gain: u[11],
             },
             grey_fit: GreyFitConfig {
                 enabled: g.0,

@@ -254,6 +254,20 @@ pub enum GreyFitError {
     AtBound,
 }
 
+/// How well the grey-level fit saw the fins, which the roll read from them follows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FinsSeen {
+    /// Their faces shaded as their own ([`Fins::Faces`]: a true scale, a clear sky, a body of
+    /// [`GreyFitConfig::fin_faces_min_contrast_sigmas`]).
+    Faces,
+    /// Shaded as the body, on a clear sky and a body of that contrast (at the table match's
+    /// scale).
+    AsBody,
+    /// On a fainter body or against a cluttered sky, where they barely show.
+    Barely,
+}
+
 /// What the grey-level fit measured.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -274,6 +288,8 @@ pub struct GreyFitted {
     /// One sigma of the view's roll, deg, from the fit's covariance (NaN on a model without
     /// fins, whose roll the image does not show, or without a covariance).
     pub roll_sd_deg: f32,
+    /// How well the fins showed.
+    pub fins_seen: FinsSeen,
     /// The fitted view.
     pub view: View,
     /// Blur sigma, px (the PSF and the pixel's width together).
@@ -881,10 +897,14 @@ pub fn fit<const C: usize>(
     // its shading to tell ([`GreyProblem::fins`]).
     let shading_shows = libm::fabsf(from.contrast)
         >= config.fin_faces_min_contrast_sigmas * input.background.sigma();
-    let faces = model.fins().is_some()
-        && (input.range_sensed || wide)
-        && !input.cluttered_sky
-        && shading_shows;
+    let fins_seen = if !shading_shows || input.cluttered_sky {
+        FinsSeen::Barely
+    } else if input.range_sensed || wide {
+        FinsSeen::Faces
+    } else {
+        FinsSeen::AsBody
+    };
+    let faces = model.fins().is_some() && fins_seen == FinsSeen::Faces;
     // Which face a fin turns to the camera depends on the yaw candidate (the silhouettes are
     // the same): the starts shade the fins for the recent frames' candidate, or as the body
     // before one is told; the fit then goes on with that candidate's faces, or with both
@@ -1232,6 +1252,7 @@ pub fn fit<const C: usize>(
         scale_sd,
         length_sd_px: libm::sqrtf(length_var.max(0.0)),
         turn_sd_rad: libm::sqrtf(var(2, 2).max(0.0)),
+        fins_seen,
         roll_sd_deg: if problem.has_fins {
             libm::sqrtf(var(ROLL, ROLL).max(0.0))
         } else {

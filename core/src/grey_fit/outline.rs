@@ -238,7 +238,7 @@ impl<const C: usize> Outline<C> {
         }
         // The nearest fin so far's depth (none yet: NaN, and any fin is nearer).
         let front_depth = faces.front_w * beyond;
-        if !(depth >= front_depth) {
+        if front_depth.is_nan() || depth < front_depth {
             *faces = FinFaces {
                 front_w: w,
                 front_edge: reach,
