@@ -53,7 +53,7 @@ pub struct UncertaintyConfig {
     /// The roll's sigma: the fit's covariance's times [`UncertaintyConfig::fit_gain`], with at
     /// least this many deg in quadrature where the fit shaded the fins' faces as their own
     /// (their thin plates and the body's shading as a quadratic, which it models only roughly:
-    /// 91-97 % of the bundled clips' and an outside renderer's rolls with the range known lie
+    /// 86-100 % of the bundled clips' and an outside renderer's rolls with the range known lie
     /// within two sigmas) ...
     pub fit_min_roll_sd_deg: f32,
     /// ... and at least this many where it shaded them as the body (under a strong sun that
