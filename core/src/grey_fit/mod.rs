@@ -792,8 +792,8 @@ impl<const C: usize> Problem<PARAMS> for GreyProblem<'_, C> {
                 let br = appearance::body_basis(rolled, u, v, sigma_m);
                 g[ROLL] = (appearance::contrast(shading, br) - contrast) / ROLL_STEP_DEG;
             }
-            for (i, b) in image.basis.iter().enumerate() {
-                g[SHADING + i] = *b;
+            for i in 0..3 {
+                g[SHADING + i] = image.basis[i];
             }
             // The body hides the sky it covers (where the sky is that behind it).
             let open = 1.0 - self.behind(image.basis[0]);
@@ -909,14 +909,16 @@ pub fn fit<const C: usize>(
     // the same): the starts shade the fins for the recent frames' candidate, or as the body
     // before one is told; the fit then goes on with that candidate's faces, or with both
     // candidates' and the better stays.
-    let fins = match (faces, input.nose_towards) {
-        (true, Some(nose_towards)) => Fins::Faces { nose_towards },
-        _ => Fins::AsBody,
-    };
-    let facings = match (faces, input.nose_towards) {
-        (false, _) => [Some(Fins::AsBody), None],
-        (true, Some(nose_towards)) => [Some(Fins::Faces { nose_towards }), None],
-        (true, None) => [false, true].map(|nose_towards| Some(Fins::Faces { nose_towards })),
+    let (fins, facings) = match (faces, input.nose_towards) {
+        (false, _) => (Fins::AsBody, [Some(Fins::AsBody), None]),
+        (true, Some(nose_towards)) => {
+            let told = Fins::Faces { nose_towards };
+            (told, [Some(told), None])
+        }
+        (true, None) => (
+            Fins::AsBody,
+            [false, true].map(|nose_towards| Some(Fins::Faces { nose_towards })),
+        ),
     };
     // The outline's columns and half span for the window (the outline itself is not kept: on
     // the firmware its 20 KiB are better left to the evaluations' own).

@@ -47,6 +47,14 @@ pub struct Outline<const C: usize> {
     faces: [[FinFaces; 2]; C],
 }
 
+/// Widens column `j` of the edges `lower` and `upper` to take in `span` (lower, upper `v`, m).
+fn widen(lower: &mut [f32], upper: &mut [f32], j: usize, span: (f32, f32)) {
+    if let (Some(lower), Some(upper)) = (lower.get_mut(j), upper.get_mut(j)) {
+        *lower = lower.min(span.0);
+        *upper = upper.max(span.1);
+    }
+}
+
 /// How an outline shades the fins.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Fins {
@@ -189,18 +197,11 @@ impl<const C: usize> Outline<C> {
                 };
                 span = (span.0.min(v), span.1.max(v));
             }
-            if let Some(psi) = fin {
-                self.cover_fin(j, span, psi);
-            } else if let (Some(lower), Some(upper)) =
-                (self.body_lower.get_mut(j), self.body_upper.get_mut(j))
-            {
-                *lower = lower.min(span.0);
-                *upper = upper.max(span.1);
+            match fin {
+                Some(psi) => self.cover_fin(j, span, psi),
+                None => widen(&mut self.body_lower, &mut self.body_upper, j, span),
             }
-            if let (Some(lower), Some(upper)) = (self.lower.get_mut(j), self.upper.get_mut(j)) {
-                *lower = lower.min(span.0);
-                *upper = upper.max(span.1);
-            }
+            widen(&mut self.lower, &mut self.upper, j, span);
         }
     }
 
