@@ -5,6 +5,7 @@
 #![no_main]
 
 use arbitrary::Arbitrary;
+use imade_core::extremes::cross_profile::ClutterWidth;
 use imade_core::extremes::follow::FollowConfig;
 use imade_core::extremes::orientation::FadeBridge;
 use imade_core::grey_fit::GreyFitConfig;
@@ -91,6 +92,8 @@ enum ConfigSpec {
         fade_bridge: Option<[f32; 4]>,
         /// The follow's tunables, in their field order (None: not followed).
         follow: Option<[f32; 5]>,
+        /// The clutter width's stretches and tunables, in their field order (None: not read).
+        clutter_width: Option<(u8, [f32; 2])>,
         /// Every tunable of the uncertainties, in their field order.
         uncertainty: [f32; 12],
         /// The grey-level fit: whether it runs, then its tunables (pixels, roll starts,
@@ -210,6 +213,7 @@ fn config(spec: &ConfigSpec) -> Config {
             silhouette: s,
             fade_bridge,
             follow,
+            clutter_width,
             uncertainty: u,
             grey_fit: g,
             bar,
@@ -314,6 +318,11 @@ fn config(spec: &ConfigSpec) -> Config {
                 remeasure_length: s[12],
                 diameter_tolerance: s[13],
                 narrow_band_max_contrast_sigmas: s[14],
+                clutter_width: clutter_width.map(|(stretches, a)| ClutterWidth {
+                    stretches: usize::from(stretches),
+                    quantile: a[0],
+                    min_fraction_of_median: a[1],
+                }),
             },
             table_match: MatchConfig {
                 section_bin_px,

@@ -23,7 +23,7 @@ use crate::segment::background::Background;
 use crate::segment::select::Shape;
 use crate::segment::{FoundBy, Target};
 use axial_profile::WidthProfile;
-use cross_profile::{CrossSection, DiameterBounds, Stretch};
+use cross_profile::{ClutterWidth, CrossSection, DiameterBounds, Stretch};
 use follow::{FollowConfig, Follower};
 use orientation::FadeBridge;
 
@@ -80,6 +80,11 @@ pub struct SilhouetteConfig {
     /// filament beside a 7-px body at 2.6 sigmas: -5 to -15 px of width where the body plainly
     /// shows), more than its few fin pixels are worth.
     pub narrow_band_max_contrast_sigmas: f32,
+    /// Where the body's size is not expected (no range) and detection follows the sky beside
+    /// the body (it is cluttered there), the cross-sections' diameter stays within
+    /// `diameter_tolerance` of the diameter short stretches along the body read
+    /// ([`ClutterWidth`]); None: the cross-sections' diameter is free there.
+    pub clutter_width: Option<ClutterWidth>,
 }
 
 impl SilhouetteConfig {
@@ -105,6 +110,7 @@ impl SilhouetteConfig {
         remeasure_length: 1.3,
         diameter_tolerance: 1.3,
         narrow_band_max_contrast_sigmas: 5.0,
+        clutter_width: Some(ClutterWidth::DEFAULT),
     };
 }
 
@@ -319,6 +325,23 @@ fn measure_on(
     let shape = found.shape;
     let half_length = config.half_length_sds * shape.major_sd;
     let half_width = config.section_reach_sds * shape.minor_sd + config.section_reach_px;
+    let bounds = bounds.or_else(|| {
+        let clutter = config
+            .clutter_width
+            .filter(|_| background.follows_corridor())?;
+        let d = clutter.diameter_px(
+            chip,
+            background,
+            shape,
+            found.polarity,
+            half_length,
+            half_width,
+        )?;
+        Some(DiameterBounds {
+            min_px: d / config.diameter_tolerance,
+            max_px: d * config.diameter_tolerance,
+        })
+    });
     let fit = |t0: f32, t1: f32| {
         cross_profile::fit(
             chip,
