@@ -86,6 +86,7 @@ enum ConfigSpec {
         cylinder_margin: f32,
         min_cylinder_px: f32,
         end_weight: f32,
+        clutter_diameter_tolerance: f32,
         /// Every scalar tunable of the silhouette stage, in its field order.
         silhouette: [f32; 15],
         /// The fade bridge's tunables, in their field order (None: not looked for).
@@ -210,6 +211,7 @@ fn config(spec: &ConfigSpec) -> Config {
             cylinder_margin,
             min_cylinder_px,
             end_weight,
+            clutter_diameter_tolerance,
             silhouette: s,
             fade_bridge,
             follow,
@@ -329,6 +331,7 @@ fn config(spec: &ConfigSpec) -> Config {
                 cylinder_margin,
                 min_cylinder_px,
                 end_weight,
+                clutter_diameter_tolerance,
                 shape_prior,
                 guided: GuidedLoopConfig {
                     method: [None, Some(GuidedMethod::SisCut), Some(GuidedMethod::GvfAsm)]

@@ -124,6 +124,13 @@ pub struct MatchConfig {
     pub min_cylinder_px: f32,
     /// Weight of each measured end in the match, in width bins.
     pub end_weight: f32,
+    /// Without a range, where the sky beside the body is cluttered (detection follows its
+    /// corridor), the shaded section's diameter stays within this factor of the silhouette's,
+    /// which short stretches along the body read there
+    /// ([`crate::extremes::cross_profile::ClutterWidth`]): the cylinder's stretch alone takes a
+    /// cloud beside it into its width. On 21 simulated clutter clips without their range, Tz
+    /// 0.80 times what it was (geometric mean of the medians), pitch and yaw 0.98-1.02.
+    pub clutter_diameter_tolerance: f32,
     /// Draw the shape prior ([`TableMatch::prior`]) of every frame with a table match, for
     /// display and evaluation (the results do not depend on it). The shape-guided loop draws it
     /// whatever this says; the firmware, which displays nothing, turns it off.
@@ -139,6 +146,7 @@ impl MatchConfig {
         cylinder_margin: 0.04,
         min_cylinder_px: 4.0,
         end_weight: 10.0,
+        clutter_diameter_tolerance: 1.3,
         shape_prior: true,
         guided: GuidedLoopConfig::DEFAULT,
     };

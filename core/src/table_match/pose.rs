@@ -16,7 +16,7 @@ use crate::chip::ChipView;
 use crate::closed_form::{self, ClosedForm};
 use crate::config::BodyPolarity;
 use crate::extremes::axial_profile::WidthProfile;
-use crate::extremes::cross_profile::{self, Stretch};
+use crate::extremes::cross_profile::{self, DiameterBounds, Stretch};
 use crate::extremes::{Axis, Silhouette};
 use crate::lut::render::{Placement, View};
 use crate::lut::table::Table;
@@ -84,7 +84,7 @@ pub fn match_pose(
     config: &MatchConfig,
 ) -> Result<MatchedPose, MatchError> {
     let sil = frame.silhouette;
-    let section = cylinder_section(frame, model, config)?;
+    let section = cylinder_section(frame, model, config, range_m.is_none())?;
     let axis = sil.axis;
     let sigma = section.sigma_px;
     let across = axis.dir.perpendicular().into();
@@ -188,11 +188,14 @@ fn matched_ends(
 /// The shaded cross-section of the cylinder between the nose shoulder and the fins; where the
 /// model's cylinder is too short to measure (a tapered body), of its wide stretch instead
 /// ([`ProjectileModel::wide_s`]), with the diameter scaled from the stretch's mean radius to the
-/// full one.
+/// full one. `unranged`: the frame has no range (the sensor's or the flight's): on a cluttered
+/// sky the diameter is then held near the silhouette's
+/// ([`MatchConfig::clutter_diameter_tolerance`]).
 fn cylinder_section(
     frame: &MatchInput,
     model: &ProjectileModel,
     config: &MatchConfig,
+    unranged: bool,
 ) -> Result<LambertSection, MatchError> {
     let sil = frame.silhouette;
     let length = sil.nose_t - sil.tail_t;
@@ -224,8 +227,13 @@ fn cylinder_section(
         half_width,
         config.section_bin_px,
     );
-    let start = cross_profile::fit_binned(&binned, None).ok_or(MatchError::NoSection)?;
-    let mut section = section::fit(&binned, &start).ok_or(MatchError::NoSection)?;
+    let tolerance = config.clutter_diameter_tolerance;
+    let bounds = (unranged && frame.background.follows_corridor()).then(|| DiameterBounds {
+        min_px: sil.diameter_px / tolerance,
+        max_px: sil.diameter_px * tolerance,
+    });
+    let start = cross_profile::fit_binned(&binned, bounds).ok_or(MatchError::NoSection)?;
+    let mut section = section::fit(&binned, &start, bounds).ok_or(MatchError::NoSection)?;
     section.diameter_px = model
         .full_diameter(section.diameter_px, s0, s1)
         .ok_or(MatchError::NoSection)?;

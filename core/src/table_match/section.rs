@@ -18,7 +18,7 @@
 //! 10-15 % on shaded bodies at 5-8 px.
 
 use crate::extremes::cross_profile::Binned;
-use crate::extremes::cross_profile::CrossSection;
+use crate::extremes::cross_profile::{CrossSection, DiameterBounds};
 use crate::math::least_squares::{self, Normal};
 use crate::math::normal;
 use nalgebra::SVector;
@@ -217,6 +217,7 @@ struct SectionFit<'a> {
     slices: &'a Slices,
     binned: &'a Binned,
     free_c2: bool,
+    bounds: Option<DiameterBounds>,
 }
 
 impl least_squares::Problem<7> for SectionFit<'_> {
@@ -231,9 +232,13 @@ impl least_squares::Problem<7> for SectionFit<'_> {
         Some(normal.complete())
     }
 
-    /// Radius at least [`MIN_RADIUS_PX`], blur between [`MIN_SIGMA_PX`] and the profile's half
-    /// width (at least [`MIN_SIGMA_PX`], so the clamp cannot panic).
+    /// Radius within the bounds where given and at least [`MIN_RADIUS_PX`], blur between
+    /// [`MIN_SIGMA_PX`] and the profile's half width (at least [`MIN_SIGMA_PX`], so the clamp
+    /// cannot panic).
     fn constrain(&self, _: &Params, trial: &mut Params) {
+        if let Some(b) = self.bounds {
+            trial[5] = trial[5].max(0.5 * b.min_px).min(0.5 * b.max_px);
+        }
         trial[5] = trial[5].max(MIN_RADIUS_PX);
         trial[6] = trial[6].clamp(MIN_SIGMA_PX, self.binned.half_width.max(MIN_SIGMA_PX));
     }
@@ -241,19 +246,31 @@ impl least_squares::Problem<7> for SectionFit<'_> {
 
 /// Levenberg-Marquardt from `p`; `c2` stays fixed unless `free_c2`. Returns the parameters and
 /// their cost: `p` and NaN where the cost at `p` is not finite.
-fn minimize(slices: &Slices, binned: &Binned, p: Params, free_c2: bool) -> (Params, f32) {
+fn minimize(
+    slices: &Slices,
+    binned: &Binned,
+    p: Params,
+    free_c2: bool,
+    bounds: Option<DiameterBounds>,
+) -> (Params, f32) {
     let problem = SectionFit {
         slices,
         binned,
         free_c2,
+        bounds,
     };
     least_squares::minimize(&problem, p, &SOLVER).map_or((p, f32::NAN), |s| (s.params, s.cost))
 }
 
-/// Fits the shaded section to `binned`, starting from the box fit `start` of the same pixels.
+/// Fits the shaded section to `binned`, starting from the box fit `start` of the same pixels,
+/// its diameter within `bounds` where given.
 /// The curvature term `c2` is kept only where it reduces the cost significantly: on a
 /// uniformly dark body it would only trade with the diameter and add noise.
-pub fn fit(binned: &Binned, start: &CrossSection) -> Option<LambertSection> {
+pub fn fit(
+    binned: &Binned,
+    start: &CrossSection,
+    bounds: Option<DiameterBounds>,
+) -> Option<LambertSection> {
     let slices = Slices::new();
     // Start from the box: a uniform section with the box's linear shading.
     let p = Params::from([
@@ -265,8 +282,8 @@ pub fn fit(binned: &Binned, start: &CrossSection) -> Option<LambertSection> {
         0.5 * start.diameter_px,
         start.sigma_px,
     ]);
-    let (linear, linear_cost) = minimize(&slices, binned, p, false);
-    let (curved, curved_cost) = minimize(&slices, binned, linear, true);
+    let (linear, linear_cost) = minimize(&slices, binned, p, false, bounds);
+    let (curved, curved_cost) = minimize(&slices, binned, linear, true, bounds);
     let noise = curved_cost / binned.pixels.max(1) as f32;
     let plausible = libm::fabsf(curved[5] / linear[5].max(1e-6) - 1.0) < MAX_CHANGE;
     let p = if linear_cost - curved_cost > SIGNIFICANCE * noise && plausible {
@@ -303,7 +320,7 @@ mod tests {
         let binned = Binned::sampled(12.0, 0.25, 4, |s| slices.model(s, &truth, true).0);
         let start = cross_profile::fit_binned(&binned, None).unwrap();
         assert!((start.diameter_px - 7.0).abs() > 0.5, "{start:?}");
-        let section = fit(&binned, &start).unwrap();
+        let section = fit(&binned, &start, None).unwrap();
         assert!(
             (section.diameter_px - 7.0).abs() < 0.02,
             "{section:?} from {start:?}"
@@ -388,7 +405,7 @@ mod tests {
         for half_width in [0.1, f32::NAN] {
             let mut binned = Binned::sampled(6.0, 0.25, 1, |s| slices.model(s, &truth, true).0);
             binned.half_width = half_width;
-            let _ = fit(&binned, &start);
+            let _ = fit(&binned, &start, None);
         }
     }
 }
