@@ -8,10 +8,10 @@
 //!
 //! blurred by a Gaussian of `sigma` px, is fitted to the binned cross-section by Levenberg-
 //! Marquardt. The blur is exact for a contrast linear in `w`: a linear piece between two edges
-//! `w = e0..e1`, blurred, is the normal distribution's CDF and density at the edges ([`Ramp`]).
+//! `w = e0..e1`, blurred, is the normal distribution's CDF and density at the edges (`Ramp`).
 //! So `c0 + c1 w` takes the two outer edges, and the curvature term `sqrt(1 - w²)` is taken as
-//! [`INTERVALS`] slices, each the straight line nearest it over the slice (its mean and its first
-//! moment there exact): 7 evaluations of the normal distribution a point, against 13 when each
+//! six slices (`INTERVALS`), each the straight line nearest it over the slice (its mean and its
+//! first moment there exact): 7 evaluations of the normal distribution a point, against 13 when each
 //! slice held the term constant, and 3-12 times closer to the exactly blurred term (0.3-2.9e-3
 //! of `c2` against 5-7e-3, radius 2-5 px, blur 0.3-1.0 px). A box with a linear term only (the
 //! closed form's model) reads the sunlit edge too far out and over-estimates the diameter by
