@@ -10,7 +10,7 @@ use crate::capacity::PROFILE_BINS;
 use crate::chip::ChipView;
 use crate::config::BodyPolarity;
 use crate::point::ImagePoint;
-use crate::segment::background::Background;
+use crate::segment::background::{Background, SkySpans};
 
 /// The width profile: `width[i]` at `t = start + (i + 0.5) * bin` px along the axis; beside it
 /// the same of the opposite polarity's pixels left out of it (`opposite[i]`, positive), where an
@@ -55,15 +55,15 @@ impl WidthProfile {
         let y_hi = ((cy + extent).max(0.0) as usize + 1).min(chip.height());
         let scale = 1.0 / (contrast.max(1e-6) * bin);
         let along = (start - bin, start + (bins as f32 + 1.0) * bin);
+        let mut spans = SkySpans::new();
         for y in y_lo..y_hi {
             let (x0, x1) = row_span(axis.centre, axis.dir, y, along, band, (x_lo, x_hi));
-            let sky = background.row(y);
-            chip.for_each_in_span(y, x0, x1, |x, v| {
+            spans.for_each_in_span(&background.row(y), chip, x0, x1, |x, v, sky| {
                 let (along, across) = axis.local(x as f32, y as f32);
                 if libm::fabsf(across) > band {
                     return;
                 }
-                let value = sign * (f32::from(v) - sky.at(x));
+                let value = sign * (f32::from(v) - sky);
                 let (profile, value) = if value < cutoff {
                     (&mut opposite, -value)
                 } else {

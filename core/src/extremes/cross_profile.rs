@@ -16,7 +16,7 @@ use crate::config::BodyPolarity;
 use crate::math::least_squares::{self, Normal};
 use crate::math::normal;
 use crate::point::ImagePoint;
-use crate::segment::background::Background;
+use crate::segment::background::{Background, SkySpans};
 use crate::segment::select::Shape;
 use nalgebra::SVector;
 
@@ -119,6 +119,7 @@ pub fn bin(
     let x_hi = ((cx + reach).max(0.0) as usize + 1).min(chip.width());
     let y_lo = (cy - reach).max(0.0) as usize;
     let y_hi = ((cy + reach).max(0.0) as usize + 1).min(chip.height());
+    let mut spans = SkySpans::new();
     for y in y_lo..y_hi {
         let (x0, x1) = row_span(
             shape.centre,
@@ -128,15 +129,14 @@ pub fn bin(
             half_width,
             (x_lo, x_hi),
         );
-        let sky = background.row(y);
-        chip.for_each_in_span(y, x0, x1, |x, v| {
+        spans.for_each_in_span(&background.row(y), chip, x0, x1, |x, v, sky| {
             let (along, across) = shape.line().local(x as f32, y as f32);
             if along < stretch.t0 || along >= stretch.t1 || libm::fabsf(across) >= half_width {
                 return;
             }
             let i = ((across + half_width) / bin_width) as usize;
             if let (Some(s), Some(c)) = (binned.sum.get_mut(i), binned.count.get_mut(i)) {
-                *s += sign * (f32::from(v) - sky.at(x));
+                *s += sign * (f32::from(v) - sky);
                 *c = c.saturating_add(1);
                 binned.pixels += 1;
             }

@@ -387,10 +387,13 @@ mod tests {
         let mut row = [0.0f32; SIDE];
         background.fill_row(64, 0, &mut row);
         let read = background.row(64);
-        for (x, level) in row.iter().enumerate() {
+        let mut filled = [0.0f32; SIDE];
+        read.fill(0, &mut filled);
+        for (x, (level, fill)) in row.iter().zip(filled).enumerate() {
             let single = background.at(x as f32, 64.0);
             assert!((level - single).abs() < 1e-3, "x {x}");
             assert_eq!(read.at(x).to_bits(), single.to_bits(), "x {x}");
+            assert_eq!(fill.to_bits(), single.to_bits(), "x {x}");
         }
         assert_eq!(background.at(63.5, 10.0), tiles_far(&chip));
         // On a clean sky the tiles stay.
