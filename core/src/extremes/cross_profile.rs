@@ -155,6 +155,16 @@ pub struct DiameterBounds {
     pub max_px: f32,
 }
 
+impl DiameterBounds {
+    /// The diameters within `factor` times `diameter_px` either way.
+    pub fn around(diameter_px: f32, factor: f32) -> DiameterBounds {
+        DiameterBounds {
+            min_px: diameter_px / factor,
+            max_px: diameter_px * factor,
+        }
+    }
+}
+
 /// The most stretches [`ClutterWidth`] fits.
 pub const MAX_CLUTTER_STRETCHES: usize = 8;
 

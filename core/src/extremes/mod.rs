@@ -337,10 +337,7 @@ fn measure_on(
             half_length,
             half_width,
         )?;
-        Some(DiameterBounds {
-            min_px: d / config.diameter_tolerance,
-            max_px: d * config.diameter_tolerance,
-        })
+        Some(DiameterBounds::around(d, config.diameter_tolerance))
     });
     let fit = |t0: f32, t1: f32| {
         cross_profile::fit(

@@ -227,11 +227,8 @@ fn cylinder_section(
         half_width,
         config.section_bin_px,
     );
-    let tolerance = config.clutter_diameter_tolerance;
-    let bounds = (unranged && frame.background.follows_corridor()).then(|| DiameterBounds {
-        min_px: sil.diameter_px / tolerance,
-        max_px: sil.diameter_px * tolerance,
-    });
+    let bounds = (unranged && frame.background.follows_corridor())
+        .then(|| DiameterBounds::around(sil.diameter_px, config.clutter_diameter_tolerance));
     let start = cross_profile::fit_binned(&binned, bounds).ok_or(MatchError::NoSection)?;
     let mut section = section::fit(&binned, &start, bounds).ok_or(MatchError::NoSection)?;
     section.diameter_px = model
