@@ -61,6 +61,12 @@ pub fn bundled_table() -> Table<'static> {
         .expect("the reference model carries its table")
 }
 
+/// TETRIS's bundled weights (`fixtures/tetris/tetris.weights`), validated.
+pub fn bundled_tetris() -> imade_core::shape_guided::TetrisWeights<'static> {
+    imade_host::tetris_weights::load(&imade_host::tetris_weights::bundled_path())
+        .expect("the bundled TETRIS weights validate")
+}
+
 /// `imade run`'s arguments for `clip` alone into `out` with the range use `range`, the rest as
 /// the command line's defaults give them (the bundled model, no masks, no shape-guided loop,
 /// the motion model, causal, the grey-level fit on); a test changes what it varies.
@@ -76,6 +82,7 @@ pub fn run_args(
         save_masks: false,
         lut: "bundled".to_owned(),
         refine: imade_host::run::RefineChoice(None),
+        tetris: None,
         range_smoothing: imade_host::run::SmoothingArg::default(),
         smooth: false,
         no_grey_fit: false,

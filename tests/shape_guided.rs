@@ -1,5 +1,5 @@
-//! Shape-guided segmentation (SIS-Cut and GVF-ASM, the source paper's Algorithms 2 and 1)
-//! against independent truth: chips and truth masks from the ray-casting renderer, or the
+//! Shape-guided segmentation (SIS-Cut, GVF-ASM and 2D TETRIS, the source paper's Algorithms 2
+//! and 1 and Section 4.3.3, TETRIS with the bundled weights) against independent truth: chips and truth masks from the ray-casting renderer, or the
 //! Table 1 test clip's chips and masks; priors rendered by the same renderer at a deliberately
 //! wrong pose. The IoU against the truth of the prior and of each method's mask is compared, as
 //! the paper's Fig. 19 does. Run with `--nocapture` for the tables.
@@ -114,12 +114,22 @@ fn perturbed(pose: &TruePose, du: f64, dv: f64, range_factor: f64, angle_deg: f6
     }
 }
 
+/// The methods compared.
+const METHODS: usize = GuidedMethod::ALL.len();
+
+/// The methods' workspace, TETRIS with the bundled weights.
+fn shape_guided() -> Box<ShapeGuided> {
+    let mut sg = Box::new(ShapeGuided::new());
+    sg.set_tetris(imade_tests::bundled_tetris());
+    sg
+}
+
 /// IoU of the prior and of each method's mask, and each method's time.
 #[derive(Debug, Clone, Copy)]
 struct Outcome {
     prior: f64,
-    methods: [f64; 2],
-    times: [Duration; 2],
+    methods: [f64; METHODS],
+    times: [Duration; METHODS],
 }
 
 /// Refines `prior` on `chip` with both methods and scores everything against `truth`.
@@ -127,8 +137,8 @@ fn evaluate(sg: &mut ShapeGuided, chip: &ChipView, prior: &ChipMask, truth: &[bo
     let config = ShapeGuidedConfig::DEFAULT;
     let w = chip.width();
     let mut out = ChipMask::new();
-    let mut methods = [0.0; 2];
-    let mut times = [Duration::ZERO; 2];
+    let mut methods = [0.0; METHODS];
+    let mut times = [Duration::ZERO; METHODS];
     for (k, method) in GuidedMethod::ALL.into_iter().enumerate() {
         let start = Instant::now();
         let refined = sg.segment(method, &config, chip, prior, &mut out);
@@ -155,7 +165,7 @@ fn quartiles(mut v: Vec<f64>) -> [f64; 3] {
 
 /// Prints the IoU quartiles of the prior and both methods, with the share of cases each method
 /// improved; returns (prior median, [method medians], [improved shares]).
-fn report(title: &str, outcomes: &[Outcome]) -> (f64, [f64; 2], [f64; 2]) {
+fn report(title: &str, outcomes: &[Outcome]) -> (f64, [f64; METHODS], [f64; METHODS]) {
     println!(
         "{title} ({} cases): IoU against truth, 25% / median / 75%",
         outcomes.len()
@@ -165,8 +175,8 @@ fn report(title: &str, outcomes: &[Outcome]) -> (f64, [f64; 2], [f64; 2]) {
         "  {:10} {:.3} / {:.3} / {:.3}",
         "prior", prior[0], prior[1], prior[2]
     );
-    let mut medians = [0.0; 2];
-    let mut improved = [0.0; 2];
+    let mut medians = [0.0; METHODS];
+    let mut improved = [0.0; METHODS];
     for (k, method) in GuidedMethod::ALL.into_iter().enumerate() {
         let q = quartiles(outcomes.iter().map(|o| o.methods[k]).collect());
         let better = outcomes.iter().filter(|o| o.methods[k] > o.prior).count();
@@ -206,7 +216,7 @@ fn pose_at(range: f64, at: (f64, f64), pitch: f64, yaw: f64, roll: f64) -> TrueP
 /// turned by 4 deg in the image (a wrong pose whose silhouette is still an affine image of the
 /// truth's); returns the outcomes.
 fn synthetic_cases(style: &ChipStyle) -> Vec<Outcome> {
-    let mut sg = ShapeGuided::new();
+    let mut sg = shape_guided();
     let mut outcomes = Vec::new();
     let mut seed = 7u64;
     for range in [1000.0, 1500.0] {
@@ -254,7 +264,7 @@ const NOISY: ChipStyle = ChipStyle {
 };
 
 #[test]
-fn both_methods_improve_a_wrong_prior_on_clean_chips() {
+fn every_method_improves_a_wrong_prior_on_clean_chips() {
     let outcomes = synthetic_cases(&CLEAN);
     let (prior, medians, improved) = report("clean rendered chips", &outcomes);
     for (k, method) in GuidedMethod::ALL.into_iter().enumerate() {
@@ -279,7 +289,8 @@ fn noisy_low_contrast_chips_are_reported() {
     let (prior, medians, _) = report("noisy low-contrast rendered chips", &outcomes);
     // SIS-Cut compares grey-level distributions over whole regions and barely notices the
     // noise; GVF-ASM follows the noisy edge map and keeps only part of its gain.
-    let [sis_cut, gvf_asm] = medians;
+    let [sis_cut, gvf_asm, tetris] = medians;
+    assert!(tetris > prior, "tetris: {tetris:.3} vs prior {prior:.3}");
     assert!(
         sis_cut > prior + 0.15,
         "sis-cut: {sis_cut:.3} vs prior {prior:.3}"
@@ -311,7 +322,7 @@ fn fixture_clip_blind_prior_and_refined_masks() {
     };
     let mut pipeline: Pipeline =
         Pipeline::new(Config::DEFAULT, camera, imade_tests::reference_model());
-    let mut sg = ShapeGuided::new();
+    let mut sg = shape_guided();
     let mut rng = Rng(1378);
     let mut outcomes = Vec::new();
     let mut blind = Vec::new();
@@ -410,7 +421,11 @@ fn fixture_clip_blind_prior_and_refined_masks() {
         "gvf-asm on a good prior: {:.3} vs {good:.3}",
         good_medians[1]
     );
-    let [sis_cut, gvf_asm] = medians;
+    let [sis_cut, gvf_asm, tetris] = medians;
+    assert!(
+        tetris > prior + 0.1,
+        "tetris: {tetris:.3} vs prior {prior:.3}"
+    );
     assert!(
         sis_cut > prior + 0.1,
         "sis-cut: {sis_cut:.3} vs prior {prior:.3}"
@@ -491,7 +506,7 @@ proptest::proptest! {
             .collect();
         let prior = to_mask(&bits, w, h);
         let config = if default_config { ShapeGuidedConfig::DEFAULT } else { odd_config(&values) };
-        let mut sg = ShapeGuided::new();
+        let mut sg = shape_guided();
         let mut out = ChipMask::new();
         for method in GuidedMethod::ALL {
             if let Ok(r) = sg.segment(method, &config, &chip, &prior, &mut out) {
@@ -528,6 +543,7 @@ fn run_loop(method: Option<GuidedMethod>, range_use: RangeUse) -> Vec<LoopFrame>
     let table = imade_tests::bundled_table();
     let mut pipeline: Box<Pipeline> =
         Box::new(Pipeline::new(config, camera, imade_tests::reference_model()).with_table(table));
+    pipeline.set_tetris(imade_tests::bundled_tetris());
     let mut frames = Vec::new();
     for row in clip.frames.iter().map(|r| r.as_ref().expect("valid row")) {
         let image = load_chip(&clip.path_of(&row.chip)).expect("chip");
@@ -584,7 +600,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 fn refinement_loop_on_the_table1_test_clip() {
     for range_use in [RangeUse::Auto, RangeUse::Ignore] {
         let none = run_loop(None, range_use);
-        for method in [None, Some(GuidedMethod::SisCut), Some(GuidedMethod::GvfAsm)] {
+        for method in [None].into_iter().chain(GuidedMethod::ALL.map(Some)) {
             let frames = if method.is_none() {
                 &none
             } else {

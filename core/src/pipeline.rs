@@ -129,6 +129,13 @@ impl<
         self.table_match.set_table(table);
     }
 
+    /// The shape-guided loop's TETRIS method ([`crate::GuidedMethod::Tetris`]) runs with
+    /// `weights` from now on.
+    #[cfg(feature = "shape-guided")]
+    pub const fn set_tetris(&mut self, weights: crate::shape_guided::TetrisWeights<'static>) {
+        self.table_match.set_tetris(weights);
+    }
+
     /// Where the camera stands in the world frame (the origin until set): the frames that come
     /// with the mount's pointing are stated from there.
     pub const fn set_station(&mut self, station: Station) {

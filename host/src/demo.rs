@@ -50,6 +50,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             save_masks: true,
             lut: args.lut.clone(),
             refine: crate::run::RefineChoice(None),
+            tetris: None,
             range_smoothing: crate::run::SmoothingArg::default(),
             smooth: false,
             grey_fit: true,

@@ -104,6 +104,7 @@ pub fn run(args: &FuseArgs) -> anyhow::Result<()> {
             save_masks: false,
             lut: args.lut.clone(),
             refine: RefineChoice(None),
+            tetris: None,
             range_smoothing: SmoothingArg::MotionModel,
             smooth: false,
             grey_fit: true,

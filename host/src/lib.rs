@@ -12,6 +12,9 @@
 //! - [`plot`]: `imade plot`, figures like the paper's.
 //! - [`pack`]: `imade pack`, a clip packed for the firmware (`firmware-sim/`).
 //! - [`sim`]: the clip simulator (`imade simulate`), with its own renderer, independent of the core.
+//! - [`tetris_weights`]: TETRIS's weights for `imade run --refine tetris`.
+//! - [`train`]: `imade train tetris`, the shape-guided segmentation's network trained on simulated
+//!   chips (candle, on the CPU).
 
 pub mod clip;
 pub mod demo;
@@ -28,3 +31,5 @@ pub mod sim;
 pub mod smooth;
 pub mod stages;
 pub mod summary;
+pub mod tetris_weights;
+pub mod train;

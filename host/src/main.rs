@@ -34,6 +34,8 @@ enum Command {
     Fuse(imade_host::fuse::FuseArgs),
     /// Pack a clip for the firmware under QEMU (imade-pack/1, see firmware-sim/).
     Pack(imade_host::pack::PackArgs),
+    /// Train a learned stage on simulated chips: `imade train tetris --out FILE`.
+    Train(imade_host::train::TrainArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -47,6 +49,7 @@ fn main() -> std::process::ExitCode {
         Command::Simulate(args) => imade_host::sim::run(&args),
         Command::Fuse(args) => imade_host::fuse::run(&args),
         Command::Pack(args) => imade_host::pack::run(&args),
+        Command::Train(args) => imade_host::train::run(&args),
     };
     if let Err(error) = &outcome {
         eprintln!("imade: error: {error:#}");

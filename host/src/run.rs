@@ -7,6 +7,7 @@ use crate::smooth::{Recorded, smoothed_results};
 use crate::stages::{STAGES, mask_file_name};
 use crate::summary::{ClipSummary, Problem, RunSummary, SUMMARY_FORMAT};
 use anyhow::{Context, bail};
+use imade_core::shape_guided::TetrisWeights;
 use imade_core::world::Position;
 use imade_core::{
     BodyPolarity, Config, FrameInput, GuidedMethod, Pipeline, RangeSmoothing, RangeUse, Status,
@@ -99,13 +100,13 @@ impl PolarityArg {
 pub struct RefineChoice(pub Option<GuidedMethod>);
 
 impl RefineChoice {
-    /// The name on the command line: `none`, `sis-cut` or `gvf-asm`.
+    /// The name on the command line: `none`, `sis-cut`, `gvf-asm` or `tetris`.
     pub fn as_str(self) -> &'static str {
         self.0.map_or("none", |m| m.as_str())
     }
 }
 
-/// Parses `--refine`: `none`, `sis-cut` or `gvf-asm`.
+/// Parses `--refine`: `none`, `sis-cut`, `gvf-asm` or `tetris`.
 pub fn parse_refine(name: &str) -> Result<RefineChoice, String> {
     if name == "none" {
         return Ok(RefineChoice(None));
@@ -149,10 +150,14 @@ pub struct RunArgs {
     /// (`imade model build`) whose id is the clip's projectile.
     #[arg(long, default_value = "bundled")]
     pub lut: String,
-    /// Shape-guided refinement of the table match: `none`, `sis-cut` or `gvf-asm` (needs a
-    /// table; docs/shape-guided.md).
+    /// Shape-guided refinement of the table match: `none`, `sis-cut`, `gvf-asm` or `tetris`
+    /// (needs a table; docs/shape-guided.md).
     #[arg(long, default_value = "none", value_parser = parse_refine)]
     pub refine: RefineChoice,
+    /// TETRIS's weights for `--refine tetris` (`imade train tetris`); default the bundled
+    /// `fixtures/tetris/tetris.weights`.
+    #[arg(long)]
+    pub tetris: Option<PathBuf>,
     /// How the range from the image is smoothed across frames: `motion-model` (a Kalman filter,
     /// with `tz_sd_m`) or `eq5` (the source paper's Eq. 5, for comparison).
     #[arg(long, value_enum, default_value = "motion-model")]
@@ -187,6 +192,8 @@ pub struct Job {
     pub lut: String,
     /// The shape-guided method (see [`RunArgs::refine`]).
     pub refine: RefineChoice,
+    /// TETRIS's weights, where the method is TETRIS (see [`RunArgs::tetris`]).
+    pub tetris: Option<TetrisWeights<'static>>,
     /// The range smoothing (see [`RunArgs::range_smoothing`]).
     pub range_smoothing: SmoothingArg,
     /// Smooth forwards and backwards (see [`RunArgs::smooth`]).
@@ -240,6 +247,15 @@ pub fn outcome(summary: &RunSummary) -> anyhow::Result<()> {
 /// One job per clip; output folders must not collide.
 fn plan(args: &RunArgs) -> anyhow::Result<Vec<Job>> {
     let single = args.clips.len() == 1;
+    let tetris = match args.refine.0 {
+        Some(GuidedMethod::Tetris) => Some(crate::tetris_weights::load(
+            &args
+                .tetris
+                .clone()
+                .unwrap_or_else(crate::tetris_weights::bundled_path),
+        )?),
+        _ => None,
+    };
     let jobs: Vec<Job> = args
         .clips
         .iter()
@@ -254,6 +270,7 @@ fn plan(args: &RunArgs) -> anyhow::Result<Vec<Job>> {
             save_masks: args.save_masks,
             lut: args.lut.clone(),
             refine: args.refine,
+            tetris,
             range_smoothing: args.range_smoothing,
             smooth: args.smooth,
             grey_fit: !args.no_grey_fit,
@@ -321,14 +338,23 @@ pub fn run_jobs(jobs: &[Job]) -> RunSummary {
     }
 }
 
-/// The pipeline for a clip's camera and projectile.
-fn pipeline_for(clip: &Clip, config: Config, lut: &str) -> anyhow::Result<Box<Pipeline>> {
+/// The pipeline for a clip's camera and projectile, with TETRIS's weights where given.
+fn pipeline_for(
+    clip: &Clip,
+    config: Config,
+    lut: &str,
+    tetris: Option<TetrisWeights<'static>>,
+) -> anyhow::Result<Box<Pipeline>> {
     let model = clip.model(lut)?;
     let pipeline = Pipeline::new(config, clip.meta.camera.camera(), model);
-    Ok(Box::new(match crate::model::table_for(lut, &model) {
+    let mut pipeline = Box::new(match crate::model::table_for(lut, &model) {
         Some(table) => pipeline.with_table(table),
         None => pipeline,
-    }))
+    });
+    if let Some(weights) = tetris {
+        pipeline.set_tetris(weights);
+    }
+    Ok(pipeline)
 }
 
 /// One row of a clip's results, before the results file is written.
@@ -341,7 +367,7 @@ enum Row {
 
 /// Processes one opened clip and writes its results CSV atomically (and the stage masks).
 pub fn run_clip(clip: &Clip, job: &Job, bar: &ProgressBar) -> anyhow::Result<ClipSummary> {
-    let mut pipeline = pipeline_for(clip, job_config(job), &job.lut)?;
+    let mut pipeline = pipeline_for(clip, job_config(job), &job.lut, job.tetris)?;
     pipeline.set_station(clip.station());
     prepare_mask_folders(&job.out_dir, job.save_masks)?;
     let mut summary = ClipSummary {
@@ -539,6 +565,7 @@ mod tests {
             save_masks: true,
             lut: "bundled".into(),
             refine: RefineChoice(Some(GuidedMethod::GvfAsm)),
+            tetris: None,
             range_smoothing: SmoothingArg::default(),
             smooth: false,
             no_grey_fit: false,

@@ -93,7 +93,8 @@ fn bench(c: &mut Criterion<ThreadCpuTime>) {
     let (pixels, prior) = scene();
     let chip = ChipView::gray8(&pixels, SIDE, SIDE, SIDE, 896, 896).expect("chip");
     let config = ShapeGuidedConfig::DEFAULT;
-    let mut sg = ShapeGuided::new();
+    let mut sg = Box::new(ShapeGuided::new());
+    sg.set_tetris(imade_tests::bundled_tetris());
     let mut out = ChipMask::new();
     let mut group = c.benchmark_group("shape_guided");
     group.sample_size(20);
@@ -121,7 +122,7 @@ fn frame_refine(c: &mut Criterion<ThreadCpuTime>) {
         .expect("the clip's projectile has a bundled table");
     let mut group = c.benchmark_group("frame_refine");
     group.sample_size(20);
-    for method in [None, Some(GuidedMethod::SisCut), Some(GuidedMethod::GvfAsm)] {
+    for method in [None].into_iter().chain(GuidedMethod::ALL.map(Some)) {
         group.bench_function(method.map_or("none", |m| m.as_str()), |b| {
             let config = Config::DEFAULT.with_guided_method(method);
             common::bench_frames(b, &fixture, config, Some(table));

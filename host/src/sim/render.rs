@@ -87,24 +87,7 @@ pub fn render(scene: &FrameScene) -> anyhow::Result<RenderedChip> {
 
     // The body: project, shade per triangle, rasterize over its bounding box.
     let mesh = &scene.model.mesh;
-    let mut points = Vec::with_capacity(mesh.vertices.len());
-    for &b in &mesh.vertices {
-        let p = scene.body.to_camera(b);
-        ensure!(
-            p.z > 1.0,
-            "the projectile is behind or at the camera (depth {} m)",
-            p.z
-        );
-        points.push(p);
-    }
-    let screen: Vec<ScreenVertex> = points
-        .iter()
-        .map(|p| ScreenVertex {
-            u: k.fx * p.x / p.z + k.cx,
-            v: k.fy * p.y / p.z + k.cy,
-            z: p.z,
-        })
-        .collect();
+    let (points, screen) = project(k, scene.model, scene.body)?;
     let samples = body_samples(&screen, (wx0, wy0, ww, wh), scene.supersampling, mesh);
     let mut shades = triangle_radiance(scene, &points);
     if let Some(clutter) = &scene.clutter
@@ -154,17 +137,72 @@ pub fn render(scene: &FrameScene) -> anyhow::Result<RenderedChip> {
     }
 
     let radiance = blur_interior(&image, ww, wh, scene.psf_sigma_px, margin);
+    let mask = chip_mask(&samples, scene.chip_origin, (cw, ch));
+    Ok(RenderedChip { radiance, mask })
+}
+
+/// The mask of the body alone at pose `body` (pixels at least half covered by `supersampling`²
+/// samples, row-major, chip-sized), without rendering the radiance: the trainer's shape prior
+/// at a perturbed pose.
+pub fn silhouette_mask(
+    intrinsics: &Intrinsics,
+    chip_origin: (i64, i64),
+    (cw, ch): (usize, usize),
+    model: &ProjectileModel,
+    body: &BodyPose,
+    supersampling: usize,
+) -> anyhow::Result<Vec<bool>> {
+    let (_, screen) = project(intrinsics, model, body)?;
+    let window = (chip_origin.0, chip_origin.1, cw, ch);
+    let samples = body_samples(&screen, window, supersampling, &model.mesh);
+    Ok(chip_mask(&samples, chip_origin, (cw, ch)))
+}
+
+/// The mesh's vertices in the camera frame, m, and on the full frame, px; an error where one
+/// is not in front of the camera.
+fn project(
+    k: &Intrinsics,
+    model: &ProjectileModel,
+    body: &BodyPose,
+) -> anyhow::Result<(Vec<Vec3>, Vec<ScreenVertex>)> {
+    let mut points = Vec::with_capacity(model.mesh.vertices.len());
+    for &b in &model.mesh.vertices {
+        let p = body.to_camera(b);
+        ensure!(
+            p.z > 1.0,
+            "the projectile is behind or at the camera (depth {} m)",
+            p.z
+        );
+        points.push(p);
+    }
+    let screen = points
+        .iter()
+        .map(|p| ScreenVertex {
+            u: k.fx * p.x / p.z + k.cx,
+            v: k.fy * p.y / p.z + k.cy,
+            z: p.z,
+        })
+        .collect();
+    Ok((points, screen))
+}
+
+/// The chip's pixels at least half covered in `samples`.
+fn chip_mask(
+    samples: &SampleBuffer,
+    chip_origin: (i64, i64),
+    (cw, ch): (usize, usize),
+) -> Vec<bool> {
     let mut mask = vec![false; cw * ch];
     for (i, m) in mask.iter_mut().enumerate() {
         let (x, y) = (
-            scene.chip_origin.0 + (i % cw) as i64,
-            scene.chip_origin.1 + (i / cw) as i64,
+            chip_origin.0 + (i % cw) as i64,
+            chip_origin.1 + (i / cw) as i64,
         );
         if let Some((px, py)) = samples.window_pixel(x, y) {
             *m = 2 * samples.covered(px, py) >= samples.samples_per_pixel();
         }
     }
-    Ok(RenderedChip { radiance, mask })
+    mask
 }
 
 /// The radiance each triangle sends to the camera: Lambertian shading of the side facing the

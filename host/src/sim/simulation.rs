@@ -79,6 +79,11 @@ impl Simulation {
         &self.plans
     }
 
+    /// The camera's intrinsics.
+    pub fn intrinsics(&self) -> &Intrinsics {
+        &self.intrinsics
+    }
+
     /// The model that flies.
     pub fn model(&self) -> &ProjectileModel {
         &self.model

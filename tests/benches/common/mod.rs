@@ -108,6 +108,7 @@ pub fn bench_frames(
         Some(t) => pipeline.with_table(t),
         None => pipeline,
     });
+    pipeline.set_tetris(imade_tests::bundled_tetris());
     let mut frames = fixture.frames.iter().cycle();
     b.iter(|| {
         let frame = frames.next().expect("a clip with frames");

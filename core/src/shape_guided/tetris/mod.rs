@@ -1,0 +1,165 @@
+//! 2D TETRIS (the source paper's Section 4.3.3, Fig. 10): a small convolutional network looks at
+//! the chip and the shape prior, both resampled on a grid along the prior's axis
+//! ([`input`]), and predicts the affine warp that moves the prior onto the body; the
+//! segmentation is the prior so warped, always one model-shaped piece.
+//!
+//! The network ([`network`]: 38,958 parameters, 152 KiB of `f32` weights, 0.40 M
+//! multiply-adds a pass) is trained on the host (`imade train tetris`) on simulated chips whose
+//! priors are drawn at randomly perturbed true poses, and read here in place from its weights
+//! file ([`weights`], `imade-tetris/1`).
+//!
+//! The warp, as the spatial transformer network that TETRIS builds on: the network's 6 outputs
+//! `(a, b, c, d, e, f)` give the crop-normalized map `q = (I + [[a, b], [c, d]]) p + (e, f)`,
+//! and the warped prior at crop point `p` is the prior at `q`. Zero outputs are the identity.
+//!
+//! The warp is kept only where it fits the chip better than the prior: the mean squared
+//! difference between the normalized chip (the body about 1, the sky 0) and the warped prior
+//! over the crop must be below the prior's own (the training loss, with the chip in place of
+//! the true mask). Else the prior stands (the identity): a network trained on priors from far
+//! off to nearly right still moves a right prior by a fraction of a pixel, which costs a thin
+//! body a tenth of its IoU.
+
+pub mod input;
+pub mod network;
+pub mod weights;
+
+pub use weights::{TetrisWeights, WeightsError};
+
+use super::ShapeGuidedError;
+use super::affine::Affine2;
+use super::prior::PriorShape;
+use crate::chip::ChipView;
+use crate::mask::BitMask;
+use input::CropFrame;
+use nalgebra::{Matrix2, Vector2};
+use network::{INPUT_COLUMNS, INPUT_ROWS, Network, OUTPUTS};
+
+/// The network's warp in the crop frame: the prior at crop point `q = linear p + offset` is the
+/// segmentation at `p`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Warp {
+    /// Linear part.
+    pub linear: Matrix2<f32>,
+    /// Offset, crop-normalized units.
+    pub offset: Vector2<f32>,
+}
+
+impl Warp {
+    /// The warp of the network's outputs.
+    pub fn of_outputs(o: &[f32; OUTPUTS]) -> Warp {
+        Warp {
+            linear: Matrix2::new(1.0 + o[0], o[1], o[2], 1.0 + o[3]),
+            offset: Vector2::new(o[4], o[5]),
+        }
+    }
+}
+
+/// What a TETRIS pass did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TetrisResult {
+    /// Chip px to chip px: the segmentation is the prior moved by it.
+    pub transform: Affine2,
+    /// The warp in the crop frame.
+    pub warp: Warp,
+    /// Mean squared difference between the normalized chip and the prior over the crop ...
+    pub residual_before: f32,
+    /// ... and between the chip and the warped prior.
+    pub residual_after: f32,
+    /// The warp fitted the chip no better than the prior: the transform is the identity.
+    pub kept_prior: bool,
+}
+
+/// The network's buffers (40 KiB).
+#[derive(Debug, Clone, Default)]
+pub struct Tetris {
+    network: Network,
+}
+
+impl Tetris {
+    /// Zeroed buffers.
+    pub const fn new() -> Self {
+        Tetris {
+            network: Network::new(),
+        }
+    }
+
+    /// Warps `prior` (measured as `shape`) onto the body in `chip` with the network `weights`.
+    pub fn run<const W: usize>(
+        &mut self,
+        chip: &ChipView,
+        prior: &BitMask<W>,
+        shape: &PriorShape,
+        weights: &TetrisWeights,
+    ) -> Result<TetrisResult, ShapeGuidedError> {
+        let frame = CropFrame::around(shape, weights);
+        frame.fill(chip, prior, self.network.input_mut());
+        let warp = Warp::of_outputs(&self.network.run(weights));
+        let input = self.network.input();
+        let (grey, cover) = input.split_at(input::PLANE);
+        let residual_before = mean_squared(grey, |k| cover[k]);
+        let residual_after = mean_squared(grey, |k| {
+            let q = warp.linear * input::sample_point(k / INPUT_COLUMNS, k % INPUT_COLUMNS);
+            crop_bilinear(cover, q + warp.offset)
+        });
+        // A NaN residual (not reachable: the input is clamped, the weights finite) keeps it too.
+        let kept_prior =
+            residual_after.partial_cmp(&residual_before) != Some(core::cmp::Ordering::Less);
+        // The segmentation at chip x is the prior at G(x); the prior moves by G's inverse.
+        let transform = if kept_prior {
+            Affine2::IDENTITY
+        } else {
+            frame
+                .chip_map(warp.linear, warp.offset)
+                .and_then(|g| g.inverse())
+                .filter(Affine2::is_finite)
+                .ok_or(ShapeGuidedError::Degenerate)?
+        };
+        Ok(TetrisResult {
+            transform,
+            warp,
+            residual_before,
+            residual_after,
+            kept_prior,
+        })
+    }
+}
+
+/// The mean over the crop of `(grey[k] - mask(k))²`.
+fn mean_squared(grey: &[f32], mask: impl Fn(usize) -> f32) -> f32 {
+    let sum: f32 = grey
+        .iter()
+        .enumerate()
+        .map(|(k, g)| {
+            let d = g - mask(k);
+            d * d
+        })
+        .sum();
+    sum / grey.len().max(1) as f32
+}
+
+/// A crop plane's bilinear value at crop-normalized point `q`, 0 outside the crop.
+pub fn crop_bilinear(plane: &[f32], q: Vector2<f32>) -> f32 {
+    // Sample (row j, column i) lies at s = (i + 0.5) / 32 - 1: i = (s + 1) 32 - 0.5.
+    let x = (q.x + 1.0) * (0.5 * INPUT_COLUMNS as f32) - 0.5;
+    let y = (q.y + 1.0) * (0.5 * INPUT_ROWS as f32) - 0.5;
+    if !(x.is_finite() && y.is_finite()) {
+        return 0.0;
+    }
+    let (fx0, fy0) = (libm::floorf(x), libm::floorf(y));
+    let (fx, fy) = (x - fx0, y - fy0);
+    let at = |column: f32, row: f32| {
+        let inside = (0.0..INPUT_COLUMNS as f32).contains(&column)
+            && (0.0..INPUT_ROWS as f32).contains(&row);
+        if inside {
+            plane
+                .get(row as usize * INPUT_COLUMNS + column as usize)
+                .copied()
+                .unwrap_or(0.0)
+        } else {
+            0.0
+        }
+    };
+    let top = at(fx0, fy0) * (1.0 - fx) + at(fx0 + 1.0, fy0) * fx;
+    let bottom = at(fx0, fy0 + 1.0) * (1.0 - fx) + at(fx0 + 1.0, fy0 + 1.0) * fx;
+    top * (1.0 - fy) + bottom * fy
+}
