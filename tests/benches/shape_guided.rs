@@ -124,7 +124,10 @@ fn frame_refine(c: &mut Criterion<ThreadCpuTime>) {
     group.sample_size(20);
     for method in [None].into_iter().chain(GuidedMethod::ALL.map(Some)) {
         group.bench_function(method.map_or("none", |m| m.as_str()), |b| {
-            let config = Config::DEFAULT.with_guided_method(method);
+            // Without the grey-level fit (about 130 ms a frame here), whose cost would hide the
+            // loop's: the paper's pipeline, detection to the refined match.
+            let mut config = Config::DEFAULT.with_guided_method(method);
+            config.grey_fit.enabled = false;
             common::bench_frames(b, &fixture, config, Some(table));
         });
     }

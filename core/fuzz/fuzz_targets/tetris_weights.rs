@@ -8,7 +8,7 @@ use arbitrary::Arbitrary;
 use imade_core::ChipView;
 use imade_core::mask::ChipMask;
 use imade_core::shape_guided::tetris::weights::FILE_LEN;
-use imade_core::shape_guided::{PriorShape, Tetris, TetrisWeights};
+use imade_core::shape_guided::{PriorShape, Tetris, TetrisConfig, TetrisWeights};
 use imade_core_fuzz::TETRIS_BYTES;
 use libfuzzer_sys::fuzz_target;
 
@@ -29,6 +29,8 @@ struct Input {
     samples: Vec<u8>,
     /// The prior's box: first and last column and row (wrapped into the chip).
     prior: [u8; 4],
+    /// Passes of the network.
+    passes: u8,
 }
 
 fuzz_target!(|input: Input| {
@@ -65,7 +67,10 @@ fuzz_target!(|input: Input| {
         return;
     };
     let mut tetris = Box::new(Tetris::new());
-    if let Ok(result) = tetris.run(&chip, &prior, &shape, &weights) {
+    let config = TetrisConfig {
+        passes: input.passes,
+    };
+    if let Ok(result) = tetris.run(&chip, &prior, &shape, &weights, &config) {
         assert!(result.transform.is_finite(), "{result:?}");
     }
 });

@@ -32,14 +32,14 @@ pub use affine::{Affine2, AffineParams};
 pub use gvf_asm::{GvfAsm, GvfAsmConfig, GvfAsmResult};
 pub use prior::PriorShape;
 pub use sis_cut::{SisCut, SisCutConfig, SisCutResult};
-pub use tetris::{Tetris, TetrisResult, TetrisWeights};
+pub use tetris::{Tetris, TetrisConfig, TetrisResult, TetrisWeights};
 
 use crate::chip::ChipView;
 use crate::mask::BitMask;
 use crate::table_match::GuidedMethod;
 use warp::{WarpError, warp_prior};
 
-/// The tunables of both methods.
+/// The tunables of the methods.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ShapeGuidedConfig {
@@ -47,6 +47,8 @@ pub struct ShapeGuidedConfig {
     pub sis_cut: SisCutConfig,
     /// GVF-ASM's.
     pub gvf_asm: GvfAsmConfig,
+    /// TETRIS's.
+    pub tetris: TetrisConfig,
 }
 
 impl ShapeGuidedConfig {
@@ -54,6 +56,7 @@ impl ShapeGuidedConfig {
     pub const DEFAULT: ShapeGuidedConfig = ShapeGuidedConfig {
         sis_cut: SisCutConfig::DEFAULT,
         gvf_asm: GvfAsmConfig::DEFAULT,
+        tetris: TetrisConfig::DEFAULT,
     };
 }
 
@@ -95,7 +98,7 @@ pub struct GuidedSegmentation {
     /// The same criterion at the segmentation.
     pub score_after: f32,
     /// Work done: objective evaluations (SIS-Cut), move-and-fit iterations (GVF-ASM) or network
-    /// passes (TETRIS, 1).
+    /// passes (TETRIS).
     pub work: u32,
     /// Set pixels of the segmentation.
     pub area_px: usize,
@@ -167,8 +170,11 @@ impl ShapeGuided {
                     .tetris_weights
                     .as_ref()
                     .ok_or(ShapeGuidedError::NoWeights)?;
-                let r = self.tetris.run(chip, prior, &shape, weights)?;
-                (r.transform, r.residual_before, r.residual_after, 1)
+                let r = self
+                    .tetris
+                    .run(chip, prior, &shape, weights, &config.tetris)?;
+                let work = u32::from((r.passes_kept + 1).min(config.tetris.passes()));
+                (r.transform, r.residual_before, r.residual_after, work)
             }
         };
         if !transform.is_finite() {

@@ -1,5 +1,6 @@
 //! The shape prior's placement: bounding box, centroid, principal axis and extents along it.
 
+use super::affine::Affine2;
 use crate::mask::BitMask;
 use nalgebra::{Matrix2, Vector2};
 
@@ -85,6 +86,46 @@ impl PriorShape {
         [(u0, v0), (u1, v0), (u1, v1), (u0, v1)].map(|(u, v)| self.centre + e * Vector2::new(u, v))
     }
 
+    /// The shape of the prior moved by `transform` (chip px to chip px), from its extent box:
+    /// the centroid moved, the axis turned and the box's moved corners measured along and
+    /// across it (exact for a move that keeps right angles, a bound otherwise). `None` where the
+    /// move collapses the axis.
+    pub fn moved(&self, transform: &Affine2) -> Option<PriorShape> {
+        let axis = transform.matrix() * self.axis;
+        let length = axis.norm();
+        if !(length.is_finite() && length > 1e-6) {
+            return None;
+        }
+        let axis = axis / length;
+        let centre = transform.apply(self.centre);
+        let across = Vector2::new(-axis.y, axis.x);
+        let mut extent = [f32::MAX, f32::MIN, f32::MAX, f32::MIN];
+        let mut bbox = [f32::MAX, f32::MIN, f32::MAX, f32::MIN];
+        for corner in self.corners().map(|c| transform.apply(c)) {
+            let (u, v) = ((corner - centre).dot(&axis), (corner - centre).dot(&across));
+            extent = [
+                extent[0].min(u),
+                extent[1].max(u),
+                extent[2].min(v),
+                extent[3].max(v),
+            ];
+            bbox = [
+                bbox[0].min(corner.x),
+                bbox[1].max(corner.x),
+                bbox[2].min(corner.y),
+                bbox[3].max(corner.y),
+            ];
+        }
+        let pixel = |v: f32| libm::roundf(v).max(0.0) as usize;
+        Some(PriorShape {
+            count: self.count,
+            bbox: bbox.map(pixel),
+            centre,
+            axis,
+            extent,
+        })
+    }
+
     /// A shape with this centre and axis angle and a 20 x 4 px extent, for tests.
     #[cfg(test)]
     pub fn for_tests(centre: Vector2<f32>, angle_rad: f32) -> PriorShape {
@@ -144,6 +185,38 @@ mod tests {
         );
         let corners = s.corners();
         assert!(((corners[1] - corners[0]).norm() - length).abs() < 1e-3);
+    }
+
+    #[test]
+    fn a_moved_shape_keeps_its_box_in_the_moved_frame() {
+        let shape = PriorShape::for_tests(Vector2::new(30.0, 20.0), 0.0);
+        let quarter = core::f32::consts::FRAC_PI_2;
+        let (s, c) = libm::sincosf(quarter);
+        let turn = Affine2::about(
+            shape.centre,
+            nalgebra::Matrix2::new(c, -s, s, c),
+            Vector2::new(5.0, -3.0),
+        );
+        let moved = shape.moved(&turn).expect("a move that keeps the axis");
+        assert!((moved.centre - Vector2::new(35.0, 17.0)).norm() < 1e-4);
+        assert!(
+            (moved.axis - Vector2::new(0.0, 1.0)).norm() < 1e-5,
+            "{:?}",
+            moved.axis
+        );
+        for (a, b) in moved.extent.iter().zip([-10.0, 10.0, -2.0, 2.0]) {
+            assert!((a - b).abs() < 1e-4, "{:?}", moved.extent);
+        }
+        // Doubling along x doubles the length.
+        let stretch = Affine2::about(
+            shape.centre,
+            nalgebra::Matrix2::new(2.0, 0.0, 0.0, 1.0),
+            Vector2::zeros(),
+        );
+        let long = shape.moved(&stretch).unwrap();
+        assert!((long.extent[1] - long.extent[0] - 40.0).abs() < 1e-4);
+        let flat = Affine2::about(shape.centre, nalgebra::Matrix2::zeros(), Vector2::zeros());
+        assert_eq!(shape.moved(&flat), None);
     }
 
     #[test]

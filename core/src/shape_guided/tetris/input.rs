@@ -88,23 +88,35 @@ impl CropFrame {
         ))
     }
 
-    /// Fills `input` (`[channel][row][column]`) from `chip` and `prior`.
+    /// Fills `input` (`[channel][row][column]`) from `chip` and `prior` moved by the inverse
+    /// of `pull` (chip px to the prior's px: the identity for the prior as drawn).
     pub fn fill<const W: usize>(
         &self,
         chip: &ChipView,
         prior: &BitMask<W>,
+        pull: &Affine2,
         input: &mut [f32; INPUT_LEN],
     ) {
         let (grey, cover) = input.split_at_mut(PLANE);
-        self.sample_mask(prior, cover);
+        self.sample_mask_through(prior, pull, cover);
         self.sample_chip(chip, cover, grey);
     }
 
     /// `mask` at every sample, bilinear between pixel centres (0 off it, 1 on it), into the
     /// plane `out` (`[row][column]`): the prior's channel, and the trainer's target.
     pub fn sample_mask<const W: usize>(&self, mask: &BitMask<W>, out: &mut [f32]) {
+        self.sample_mask_through(mask, &Affine2::IDENTITY, out);
+    }
+
+    /// `mask` at the image under `pull` of every sample.
+    fn sample_mask_through<const W: usize>(
+        &self,
+        mask: &BitMask<W>,
+        pull: &Affine2,
+        out: &mut [f32],
+    ) {
         for (k, value) in out.iter_mut().enumerate().take(PLANE) {
-            let p = self.sample_px(k / INPUT_COLUMNS, k % INPUT_COLUMNS);
+            let p = pull.apply(self.sample_px(k / INPUT_COLUMNS, k % INPUT_COLUMNS));
             *value = bilinear(p, mask.width(), mask.height(), |x, y| {
                 if mask.get(x, y) { 1.0 } else { 0.0 }
             });
@@ -231,7 +243,7 @@ mod tests {
         // the prior by a few per cent), the sky 0.
         let chip = ChipView::gray8(&data, 96, 64, 96, 0, 0).unwrap();
         let mut input = [0.0f32; INPUT_LEN];
-        frame.fill(&chip, &prior, &mut input);
+        frame.fill(&chip, &prior, &Affine2::IDENTITY, &mut input);
         let plane = PLANE;
         let middle = (INPUT_ROWS / 2) * INPUT_COLUMNS + INPUT_COLUMNS / 2;
         assert!((input[middle] - 1.0).abs() < 0.1, "{}", input[middle]);

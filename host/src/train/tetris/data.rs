@@ -12,9 +12,9 @@ use crate::sim::render::silhouette_mask;
 use crate::sim::{Scenario, Simulation, presets};
 use anyhow::Context;
 use imade_core::mask::ChipMask;
-use imade_core::shape_guided::PriorShape;
 use imade_core::shape_guided::tetris::input::{CropFrame, PLANE};
 use imade_core::shape_guided::tetris::network::INPUT_LEN;
+use imade_core::shape_guided::{Affine2, PriorShape};
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -172,7 +172,7 @@ impl TrainingChip {
         let frame = CropFrame::with_proportions(&shape, CROP_LENGTHS, CROP_WIDTHS);
         let view = self.view()?;
         let mut input = Box::new([0.0f32; INPUT_LEN]);
-        frame.fill(&view, &prior, &mut input);
+        frame.fill(&view, &prior, &Affine2::IDENTITY, &mut input);
         let mut target = Box::new([0.0f32; PLANE]);
         frame.sample_mask(&self.truth, &mut target[..]);
         Some(Sample { input, target })

@@ -18,7 +18,7 @@ use data::{CROP_LENGTHS, CROP_WIDTHS, Perturbation, Sample, TrainingChip};
 use imade_core::mask::ChipMask;
 use imade_core::shape_guided::tetris::network::{INPUT_COLUMNS, INPUT_LEN, INPUT_ROWS};
 use imade_core::shape_guided::tetris::weights::{self, FILE_LEN, TetrisWeights};
-use imade_core::shape_guided::tetris::{Tetris, input::PLANE};
+use imade_core::shape_guided::tetris::{Tetris, TetrisConfig, input::PLANE};
 use imade_core::shape_guided::{PriorShape, warp::warp_prior};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -241,7 +241,9 @@ pub fn validate(weights: &TetrisWeights, chips: &[TrainingChip], seed: u64) -> (
             let shape = PriorShape::measure(&prior)?;
             let view = chip.view()?;
             let mut tetris = Box::new(Tetris::new());
-            let result = tetris.run(&view, &prior, &shape, weights).ok()?;
+            let result = tetris
+                .run(&view, &prior, &shape, weights, &TetrisConfig::DEFAULT)
+                .ok()?;
             let mut warped = Box::new(ChipMask::new());
             warp_prior(&prior, &shape, &result.transform, &mut warped).ok()?;
             Some((
