@@ -1,7 +1,7 @@
 //! The training loss against the step (`imade train`), with its running mean.
 
 use super::font::FAMILY;
-use super::panel::{ESTIMATE, SECONDARY, legend_mark};
+use super::panel::{ESTIMATE, SECONDARY, draw_legend, legend_mark};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -54,12 +54,7 @@ pub fn plot(losses: &[f64], path: &Path) -> anyhow::Result<()> {
         .draw_series(LineSeries::new(running, ESTIMATE.stroke_width(2)))?
         .label(format!("mean of {WINDOW} steps"))
         .legend(legend_mark(ESTIMATE));
-    chart
-        .configure_series_labels()
-        .label_font((FAMILY, 14))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
+    draw_legend(&mut chart)?;
     root.present()?;
     Ok(())
 }
