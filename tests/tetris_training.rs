@@ -69,3 +69,15 @@ fn a_brief_training_lowers_the_loss_and_is_repeatable() {
         "the same seed gave other weights"
     );
 }
+
+#[test]
+fn an_unwritable_output_is_refused_before_training() {
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let missing = run(&args(dir.path().join("missing").join("x.weights")));
+    let error = format!("{:#}", missing.expect_err("no folder to write to"));
+    assert!(error.contains("its folder must exist"), "{error}");
+    assert!(
+        run(&args(dir.path().to_path_buf())).is_err(),
+        "a folder as the output"
+    );
+}

@@ -97,6 +97,16 @@ pub fn run(args: &TetrisArgs) -> anyhow::Result<TrainingReport> {
         args.steps > 0 && args.batch > 0 && args.clips > 0,
         "nothing to train"
     );
+    // Refused before the minutes of training, not after.
+    let folder = match args.out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    anyhow::ensure!(
+        folder.is_dir() && !args.out.is_dir(),
+        "cannot write the weights to {}: its folder must exist and it must not be a folder",
+        args.out.display()
+    );
     let started = Instant::now();
     let chips = data::render_chips(args.seed, 0..args.clips, args.frames_per_clip)?;
     let validation = data::render_chips(
