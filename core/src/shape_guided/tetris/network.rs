@@ -1,7 +1,8 @@
 //! The transformation prediction network (the source paper's Fig. 10, its TP module): three
 //! 3 x 3 convolutions of stride 2 with ReLU, a dense layer of 32 ReLU units and a dense layer
-//! of the warp's 6 numbers. Plain `f32` loops in one fixed order, so the host and the firmware
-//! give the same bits; the weights are read in place ([`TetrisWeights`]).
+//! of the warp's 6 numbers. Plain `f32` loops in one fixed order and no libm call, as the other
+//! stages are written for the firmware to give the host's bits; the weights are read in place
+//! ([`TetrisWeights`]).
 //!
 //! The input is `[channel][row][column]`: channel 0 the chip, channel 1 the prior, rows across
 //! the prior's axis, columns along it ([`super::input`]). The flattening before the dense
