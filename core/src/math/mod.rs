@@ -6,6 +6,16 @@ pub mod normal;
 
 use nalgebra::{SMatrix, SVector};
 
+/// The bilinear blend of a lattice cell's values `corners` (top left, top right, bottom left,
+/// bottom right) at weights `wx` across and `wy` down, each row blended first.
+#[inline]
+pub fn bilinear_blend(corners: [f32; 4], wx: f32, wy: f32) -> f32 {
+    let [top_left, top_right, bottom_left, bottom_right] = corners;
+    let top = top_left * (1.0 - wx) + top_right * wx;
+    let bottom = bottom_left * (1.0 - wx) + bottom_right * wx;
+    top * (1.0 - wy) + bottom * wy
+}
+
 /// Adds `w g gᵀ` to the upper triangle of `jtj` and `w r g` to `jtr`: one point's share of a
 /// least-squares fit's normal equations (residual `r`, model gradient `g`, weight `w`). Half the
 /// work of the full outer product; complete the matrix with

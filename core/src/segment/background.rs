@@ -9,6 +9,7 @@
 use crate::capacity::{BACKGROUND_TILE, MAX_CHIP_SIDE, MAX_TILES_PER_SIDE, NOISE_SAMPLES};
 use crate::chip::ChipView;
 use crate::extremes::{Axis, row_span};
+use crate::math::bilinear_blend;
 use crate::segment::corridor::{Corridor, CorridorShape};
 use crate::segment::terrain::{Horizon, TerrainConfig};
 
@@ -376,7 +377,7 @@ impl Background {
     #[inline]
     fn bilinear(&self, column: (usize, usize, f32), row: (usize, usize, f32)) -> f32 {
         let ((x0, x1, wx), (y0, y1, wy)) = (column, row);
-        blend(self.corners((x0, x1), (y0, y1)), wx, wy)
+        bilinear_blend(self.corners((x0, x1), (y0, y1)), wx, wy)
     }
 
     /// The levels of tiles `x0`, `x1` in rows `y0` and `y1`: top left, top right, bottom left,
@@ -554,7 +555,7 @@ impl SkyRow<'_> {
                 tiles = Some((x0, x1));
                 corners = background.corners((x0, x1), (y0, y1));
             }
-            *slot = blend(corners, wx, wy);
+            *slot = bilinear_blend(corners, wx, wy);
         }
         background.overlay_corridor(self.y, x_start, out);
     }
@@ -608,16 +609,6 @@ impl SkySpans {
             from = to;
         }
     }
-}
-
-/// The bilinear blend of a tile quad's levels `corners` (top left, top right, bottom left,
-/// bottom right) at weights `wx` across and `wy` down.
-#[inline]
-fn blend(corners: [f32; 4], wx: f32, wy: f32) -> f32 {
-    let [top_left, top_right, bottom_left, bottom_right] = corners;
-    let top = top_left * (1.0 - wx) + top_right * wx;
-    let bottom = bottom_left * (1.0 - wx) + bottom_right * wx;
-    top * (1.0 - wy) + bottom * wy
 }
 
 /// A linear piece of a row's background: `level + slope (x - origin)` at column `x`.

@@ -7,6 +7,7 @@
 
 use super::prior::PriorShape;
 use crate::chip::ChipView;
+use crate::math::bilinear_blend;
 use nalgebra::Vector2;
 
 /// A `width` x `height` grid of cells `step` px apart, aligned with a prior's axis.
@@ -137,9 +138,13 @@ fn bilinear(
     let (x0, y0) = (p.x as usize, p.y as usize);
     let (fx, fy) = (p.x - x0 as f32, p.y - y0 as f32);
     let (x1, y1) = ((x0 + 1).min(width - 1), (y0 + 1).min(height - 1));
-    let top = value(x0, y0)? * (1.0 - fx) + value(x1, y0)? * fx;
-    let bottom = value(x0, y1)? * (1.0 - fx) + value(x1, y1)? * fx;
-    Some(top * (1.0 - fy) + bottom * fy)
+    let corners = [
+        value(x0, y0)?,
+        value(x1, y0)?,
+        value(x0, y1)?,
+        value(x1, y1)?,
+    ];
+    Some(bilinear_blend(corners, fx, fy))
 }
 
 #[cfg(test)]

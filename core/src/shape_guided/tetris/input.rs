@@ -187,8 +187,12 @@ fn bilinear(
     let (x0, y0) = (libm::floorf(x) as usize, libm::floorf(y) as usize);
     let (x1, y1) = ((x0 + 1).min(width - 1), (y0 + 1).min(height - 1));
     let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-    let top = value(x0, y0) + fx * (value(x1, y0) - value(x0, y0));
-    let bottom = value(x0, y1) + fx * (value(x1, y1) - value(x0, y1));
+    // Each corner read once; the blend in this form (not `math::bilinear_blend`'s) is the one
+    // the bundled weights were trained on.
+    let (top_left, top_right) = (value(x0, y0), value(x1, y0));
+    let (bottom_left, bottom_right) = (value(x0, y1), value(x1, y1));
+    let top = top_left + fx * (top_right - top_left);
+    let bottom = bottom_left + fx * (bottom_right - bottom_left);
     top + fy * (bottom - top)
 }
 

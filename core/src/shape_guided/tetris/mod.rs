@@ -31,6 +31,7 @@ use super::affine::Affine2;
 use super::prior::PriorShape;
 use crate::chip::ChipView;
 use crate::mask::BitMask;
+use crate::math::bilinear_blend;
 use core::cmp::Ordering;
 use input::CropFrame;
 use nalgebra::{Matrix2, Vector2};
@@ -184,11 +185,12 @@ impl Tetris {
         let warp = Warp::of_outputs(&self.network.run(weights));
         let input = self.network.input();
         let (grey, cover) = input.split_at(input::PLANE);
-        let residual_before = mean_squared(grey, |k| cover[k]);
-        let residual_after = mean_squared(grey, |k| {
+        let residual_before = mean_squared(grey, cover.iter().copied());
+        let warped = (0..input::PLANE).map(|k| {
             let q = warp.linear * input::sample_point(k / INPUT_COLUMNS, k % INPUT_COLUMNS);
             crop_bilinear(cover, q + warp.offset)
         });
+        let residual_after = mean_squared(grey, warped);
         let pull = frame
             .chip_map(warp.linear, warp.offset)
             .filter(Affine2::is_finite)
@@ -201,13 +203,13 @@ impl Tetris {
     }
 }
 
-/// The mean over the crop of `(grey[k] - mask(k))²`.
-fn mean_squared(grey: &[f32], mask: impl Fn(usize) -> f32) -> f32 {
+/// The mean over the crop of `(grey[k] - mask[k])²`.
+fn mean_squared(grey: &[f32], mask: impl Iterator<Item = f32>) -> f32 {
     let sum: f32 = grey
         .iter()
-        .enumerate()
-        .map(|(k, g)| {
-            let d = g - mask(k);
+        .zip(mask)
+        .map(|(g, m)| {
+            let d = g - m;
             d * d
         })
         .sum();
@@ -236,7 +238,11 @@ pub fn crop_bilinear(plane: &[f32], q: Vector2<f32>) -> f32 {
             0.0
         }
     };
-    let top = at(fx0, fy0) * (1.0 - fx) + at(fx0 + 1.0, fy0) * fx;
-    let bottom = at(fx0, fy0 + 1.0) * (1.0 - fx) + at(fx0 + 1.0, fy0 + 1.0) * fx;
-    top * (1.0 - fy) + bottom * fy
+    let corners = [
+        at(fx0, fy0),
+        at(fx0 + 1.0, fy0),
+        at(fx0, fy0 + 1.0),
+        at(fx0 + 1.0, fy0 + 1.0),
+    ];
+    bilinear_blend(corners, fx, fy)
 }

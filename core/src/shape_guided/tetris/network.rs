@@ -142,7 +142,8 @@ impl Network {
     pub fn run(&mut self, weights: &TetrisWeights) -> [f32; OUTPUTS] {
         convolve(weights, CONV1, CONV1_AT, &self.input, &mut self.first);
         convolve(weights, CONV2, CONV2_AT, &self.first, &mut self.second);
-        let flat = &mut self.first[..FLAT];
+        // FLAT < CONV1.output_len(): the third convolution's output fits the first's buffer.
+        let flat = self.first.get_mut(..FLAT).unwrap_or_default();
         convolve(weights, CONV3, CONV3_AT, &self.second, flat);
         let mut hidden = [0.0f32; HIDDEN];
         dense(weights, DENSE1_AT, flat, &mut hidden);
@@ -158,30 +159,31 @@ impl Network {
 /// after them.
 fn convolve(weights: &TetrisWeights, c: Convolution, at: usize, input: &[f32], output: &mut [f32]) {
     let (rows, columns) = (c.rows / 2, c.columns / 2);
-    for o in 0..c.outputs {
+    let planes = input.chunks_exact(c.rows * c.columns).take(c.inputs);
+    let out_planes = output.chunks_exact_mut(rows * columns).take(c.outputs);
+    for (o, out_plane) in out_planes.enumerate() {
         let bias = weights.parameter(at + c.weights() + o);
-        for y in 0..rows {
-            for x in 0..columns {
-                let mut sum = 0.0f32;
-                for i in 0..c.inputs {
-                    let plane = &input[i * c.rows * c.columns..(i + 1) * c.rows * c.columns];
-                    let kernel = at + (o * c.inputs + i) * 9;
-                    for ky in 0..3 {
-                        let Some(sy) = (2 * y + ky).checked_sub(1).filter(|&s| s < c.rows) else {
-                            continue;
-                        };
-                        for kx in 0..3 {
-                            let Some(sx) = (2 * x + kx).checked_sub(1).filter(|&s| s < c.columns)
-                            else {
-                                continue;
-                            };
-                            sum += weights.parameter(kernel + 3 * ky + kx)
-                                * plane[sy * c.columns + sx];
+        for (k, out) in out_plane.iter_mut().enumerate() {
+            let (y, x) = (k / columns, k % columns);
+            let mut sum = 0.0f32;
+            for (i, plane) in planes.clone().enumerate() {
+                let kernel = at + (o * c.inputs + i) * 9;
+                for ky in 0..3 {
+                    let Some(sy) = (2 * y + ky).checked_sub(1).filter(|&s| s < c.rows) else {
+                        continue;
+                    };
+                    for kx in 0..3 {
+                        let sample = (2 * x + kx)
+                            .checked_sub(1)
+                            .filter(|&s| s < c.columns)
+                            .and_then(|sx| plane.get(sy * c.columns + sx));
+                        if let Some(value) = sample {
+                            sum += weights.parameter(kernel + 3 * ky + kx) * value;
                         }
                     }
                 }
-                output[(o * rows + y) * columns + x] = (sum + bias).max(0.0);
             }
+            *out = (sum + bias).max(0.0);
         }
     }
 }

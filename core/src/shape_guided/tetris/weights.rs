@@ -91,20 +91,20 @@ impl<'a> TetrisWeights<'a> {
         if !checksum_ok(bytes) {
             return Err(WeightsError::Checksum);
         }
-        let parameters = &bytes[HEADER_LEN..FILE_LEN - 4];
-        if parameters
-            .chunks_exact(4)
-            .any(|c| !f32::from_le_bytes([c[0], c[1], c[2], c[3]]).is_finite())
-        {
-            return Err(WeightsError::NotFinite);
-        }
+        let parameters = bytes
+            .get(HEADER_LEN..FILE_LEN - 4)
+            .ok_or(WeightsError::Length)?;
         let seed = u64::from(u32_at(bytes, 40)) | (u64::from(u32_at(bytes, 44)) << 32);
-        Ok(TetrisWeights {
+        let weights = TetrisWeights {
             parameters,
             crop_lengths,
             crop_widths,
             seed,
-        })
+        };
+        if (0..PARAMETERS).any(|i| !weights.parameter(i).is_finite()) {
+            return Err(WeightsError::NotFinite);
+        }
+        Ok(weights)
     }
 
     /// Parameter `index` in file order (0 past the end, which validation rules out).
@@ -156,37 +156,46 @@ pub fn write(
     seed: u64,
     out: &mut [u8],
 ) -> Option<usize> {
-    if parameters.len() != PARAMETERS || out.len() < FILE_LEN {
+    if parameters.len() != PARAMETERS {
         return None;
     }
-    let out = &mut out[..FILE_LEN];
+    let out = out.get_mut(..FILE_LEN)?;
     out.fill(0);
-    out[..8].copy_from_slice(&MAGIC);
+    let (header, rest) = out.split_at_mut_checked(HEADER_LEN)?;
+    let (body, trailer) = rest.split_at_mut_checked(4 * PARAMETERS)?;
     let a = ARCHITECTURE;
-    let fields = [
-        (8, VERSION),
-        (10, HEADER_LEN as u16),
-        (12, a.channels as u16),
-        (14, a.rows as u16),
-        (16, a.columns as u16),
-        (18, a.convolutions[0] as u16),
-        (20, a.convolutions[1] as u16),
-        (22, a.convolutions[2] as u16),
-        (24, a.hidden as u16),
-        (26, a.outputs as u16),
+    let u16s = [
+        VERSION,
+        HEADER_LEN as u16,
+        a.channels as u16,
+        a.rows as u16,
+        a.columns as u16,
+        a.convolutions[0] as u16,
+        a.convolutions[1] as u16,
+        a.convolutions[2] as u16,
+        a.hidden as u16,
+        a.outputs as u16,
     ];
-    for (at, value) in fields {
-        out[at..at + 2].copy_from_slice(&value.to_le_bytes());
+    let fields = MAGIC
+        .into_iter()
+        .chain(u16s.iter().flat_map(|v| v.to_le_bytes()))
+        .chain((PARAMETERS as u32).to_le_bytes())
+        .chain(crop_lengths.to_le_bytes())
+        .chain(crop_widths.to_le_bytes())
+        .chain(seed.to_le_bytes());
+    // Offsets 0-47 in the layout's order; the reserved 48-63 stay 0.
+    for (slot, byte) in header.iter_mut().zip(fields) {
+        *slot = byte;
     }
-    out[28..32].copy_from_slice(&(PARAMETERS as u32).to_le_bytes());
-    out[32..36].copy_from_slice(&crop_lengths.to_le_bytes());
-    out[36..40].copy_from_slice(&crop_widths.to_le_bytes());
-    out[40..48].copy_from_slice(&seed.to_le_bytes());
-    for (chunk, value) in out[HEADER_LEN..].chunks_exact_mut(4).zip(parameters) {
+    for (chunk, value) in body.chunks_exact_mut(4).zip(parameters) {
         chunk.copy_from_slice(&value.to_le_bytes());
     }
-    let crc = crate::bytes::CRC.checksum(&out[..FILE_LEN - 4]);
-    out[FILE_LEN - 4..].copy_from_slice(&crc.to_le_bytes());
+    let mut digest = crate::bytes::CRC.digest();
+    digest.update(header);
+    digest.update(body);
+    for (slot, byte) in trailer.iter_mut().zip(digest.finalize().to_le_bytes()) {
+        *slot = byte;
+    }
     Some(FILE_LEN)
 }
 

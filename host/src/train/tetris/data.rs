@@ -82,7 +82,7 @@ pub struct TrainingChip {
     /// The chip's full-frame origin, px.
     pub origin: (i64, i64),
     /// The true mask.
-    pub truth: ChipMask,
+    pub truth: Box<ChipMask>,
     /// The extent of the true mask: its bounding box's diagonal, px.
     pub extent_px: f64,
     /// The camera.
@@ -130,23 +130,20 @@ fn clip_chips(seed: u64, clip: usize, frames: usize) -> anyhow::Result<Vec<Train
     let planned = simulation.plans().len();
     let mut chips = Vec::with_capacity(frames);
     for _ in 0..frames {
-        let index = ((random.uniform() * planned as f64) as usize).min(planned - 1);
+        let index = random.index(planned);
         let plan = &simulation.plans()[index];
         let rendered = simulation.render_frame(index)?;
-        let mut truth = ChipMask::new();
         let (w, h) = (rendered.chip.width as usize, rendered.chip.height as usize);
-        truth
-            .reset(w, h)
-            .map_err(|_| anyhow::anyhow!("a {w} x {h} chip is larger than the core's masks"))?;
-        let (mut x0, mut x1, mut y0, mut y1) = (w, 0, h, 0);
-        for (i, p) in rendered.mask.pixels().enumerate() {
-            if p.0[0] > 0 {
-                let (x, y) = (i % w, i / w);
-                truth.set(x, y, true);
-                (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
-            }
-        }
+        let truth = chip_mask(w, h, rendered.mask.pixels().map(|p| p.0[0] > 0))
+            .with_context(|| format!("a {w} x {h} chip is larger than the core's masks"))?;
         // A body cut by the chip's edge or not in it is no sample.
+        let Some(PriorShape {
+            bbox: [x0, x1, y0, y1],
+            ..
+        }) = PriorShape::measure(&truth)
+        else {
+            continue;
+        };
         if rendered.mask_pixels < 4 || x0 == 0 || y0 == 0 || x1 + 1 >= w || y1 + 1 >= h {
             continue;
         }
@@ -185,12 +182,7 @@ impl TrainingChip {
         let (w, h) = (self.chip.width as usize, self.chip.height as usize);
         let drawn =
             silhouette_mask(&self.intrinsics, self.origin, (w, h), &self.model, &body, 1).ok()?;
-        let mut prior = Box::new(ChipMask::new());
-        prior.reset(w, h).ok()?;
-        for (i, _) in drawn.iter().enumerate().filter(|(_, on)| **on) {
-            prior.set(i % w, i / w, true);
-        }
-        Some(prior)
+        chip_mask(w, h, drawn.into_iter())
     }
 
     /// The chip as the core reads it.
@@ -226,6 +218,16 @@ impl TrainingChip {
             rotation: turn * self.body.rotation * roll,
         }
     }
+}
+
+/// A `w` x `h` chip mask of `bits` (row-major), `None` where it is larger than a chip mask.
+fn chip_mask(w: usize, h: usize, bits: impl Iterator<Item = bool>) -> Option<Box<ChipMask>> {
+    let mut mask = Box::new(ChipMask::new());
+    mask.reset(w, h).ok()?;
+    for (i, _) in bits.enumerate().filter(|(_, on)| *on) {
+        mask.set(i % w, i / w, true);
+    }
+    Some(mask)
 }
 
 /// The rotation by `angle` rad about unit `axis` (Rodrigues).

@@ -207,9 +207,9 @@ fn draw_batch(chips: &[TrainingChip], seed: u64, first: u64, n: usize) -> Vec<Sa
         .filter_map(|k| {
             let mut random = Random::new(seed, Purpose::Training, first + k);
             (0..8).find_map(|_| {
-                let chip =
-                    &chips[((random.uniform() * chips.len() as f64) as usize).min(chips.len() - 1)];
-                chip.sample(&Perturbation::DEFAULT, &mut random)
+                chips
+                    .get(random.index(chips.len()))?
+                    .sample(&Perturbation::DEFAULT, &mut random)
             })
         })
         .collect()
