@@ -44,6 +44,10 @@ pub struct Background {
     tiles_x: usize,
     tiles_y: usize,
     levels: [f32; MAX_TILES_PER_SIDE * MAX_TILES_PER_SIDE],
+    /// Each tile's lowest and highest pixel value, grey levels, as its histogram in
+    /// [`Background::estimate`] read them (for a 16-bit chip, to the edges of the coarse bins);
+    /// `(0, u16::MAX)` where no chip was estimated.
+    ranges: [(u16, u16); MAX_TILES_PER_SIDE * MAX_TILES_PER_SIDE],
     columns: AxisTable,
     rows: AxisTable,
     sigma: f32,
@@ -137,6 +141,7 @@ impl Background {
             tiles_x: 0,
             tiles_y: 0,
             levels: [0.0; MAX_TILES_PER_SIDE * MAX_TILES_PER_SIDE],
+            ranges: [(0, u16::MAX); MAX_TILES_PER_SIDE * MAX_TILES_PER_SIDE],
             columns: AxisTable::new(),
             rows: AxisTable::new(),
             sigma: MIN_SIGMA,
@@ -157,9 +162,12 @@ impl Background {
         self.rows.fill(self.tiles_y, self.height);
         for ty in 0..self.tiles_y {
             for tx in 0..self.tiles_x {
-                let level = tile_median(chip, self.tile_rect(tx, ty), |_, _| true).0;
-                if let Some(slot) = self.levels.get_mut(ty * self.tiles_x + tx) {
-                    *slot = level;
+                let tile = tile_median(chip, self.tile_rect(tx, ty), |_, _| true);
+                let index = ty * self.tiles_x + tx;
+                if let (Some(level), Some(range)) =
+                    (self.levels.get_mut(index), self.ranges.get_mut(index))
+                {
+                    (*level, *range) = (tile.level, tile.range);
                 }
             }
         }
@@ -206,7 +214,11 @@ impl Background {
                 if !reached {
                     continue;
                 }
-                let (level, kept) = tile_median(chip, rect, sky_pixel);
+                let TileMedian {
+                    level,
+                    pixels: kept,
+                    ..
+                } = tile_median(chip, rect, sky_pixel);
                 let area = (rect.2 - rect.0) * (rect.3 - rect.1);
                 let level = match ty.checked_sub(1) {
                     _ if 4 * kept >= area => level,
@@ -278,7 +290,11 @@ impl Background {
                 if region_cover(rect, outside) < MIN_DRAGGED_COVER {
                     continue;
                 }
-                let (level, kept) = tile_median(chip, rect, outside);
+                let TileMedian {
+                    level,
+                    pixels: kept,
+                    ..
+                } = tile_median(chip, rect, outside);
                 let index = ty * self.tiles_x + tx;
                 let area = (rect.2 - rect.0) * (rect.3 - rect.1);
                 if 4 * kept < area {
@@ -328,6 +344,52 @@ impl Background {
             self.levels = levels;
         }
         moved
+    }
+
+    /// Bounds on the background-subtracted value ([`Background::fill_row`]) of every pixel of
+    /// the tiles in tile row `ty`, grey levels: `(lowest, highest)` per tile into `bounds`, one
+    /// per tile column. `scratch` holds one background row (the chip's width; shorter, nothing
+    /// is bounded). Returns false, with nothing written, where there are no bounds: the sky
+    /// follows a corridor, the chip is not the one estimated, or `ty` is outside it.
+    ///
+    /// The background is bilinear between neighbouring tile centres, so over a tile its extremes
+    /// lie on the rows and columns of the tile's edges and next to its centre: it is read there.
+    /// The pixels' extremes are the tile's histogram's.
+    pub fn residual_bounds(
+        &self,
+        chip: &ChipView,
+        ty: usize,
+        scratch: &mut [f32],
+        bounds: &mut [(f32, f32); MAX_TILES_PER_SIDE],
+    ) -> bool {
+        let fits = chip.width() == self.width && chip.height() == self.height;
+        let Some(row) = scratch.get_mut(..self.width) else {
+            return false;
+        };
+        if self.corridor.is_some() || !fits || ty >= self.tiles_y {
+            return false;
+        }
+        let (_, y0, _, y1) = self.tile_rect(0, ty);
+        let mut sky = [(f32::INFINITY, f32::NEG_INFINITY); MAX_TILES_PER_SIDE];
+        for y in extreme_lines(y0, y1, tile_centre(ty, self.height)) {
+            self.fill_row_from_tiles(y, 0, row);
+            for (tx, (low, high)) in sky.iter_mut().enumerate().take(self.tiles_x) {
+                let (x0, _, x1, _) = self.tile_rect(tx, ty);
+                for x in extreme_lines(x0, x1, tile_centre(tx, self.width)) {
+                    let value = row.get(x).copied().unwrap_or(f32::NAN);
+                    (*low, *high) = (low.min(value), high.max(value));
+                }
+            }
+        }
+        let ranges = self.ranges.iter().skip(ty * self.tiles_x);
+        let tiles = bounds.iter_mut().zip(sky).zip(ranges).take(self.tiles_x);
+        for ((bound, (low, high)), &(lowest, highest)) in tiles {
+            let (lowest, highest) = (f32::from(lowest), f32::from(highest));
+            // The rounding of the interpolation and of the subtraction, with room to spare.
+            let margin = 1e-3 + 1e-5 * highest.max(libm::fabsf(low)).max(libm::fabsf(high));
+            *bound = (lowest - high - margin, highest - low + margin);
+        }
+        true
     }
 
     /// Tile (`tx`, `ty`)'s pixels: columns `.0..2`, rows `.1..3`.
@@ -627,6 +689,15 @@ fn fill_piece(out: &mut [f32], x_start: usize, from: usize, to: usize, piece: Pi
     }
 }
 
+/// The lines (columns or rows) `from..to` of a tile whose centre is at `centre`, px, where a
+/// function linear on either side of the centre has its extremes over the tile: its first and
+/// last line and the two around the centre (some may repeat).
+fn extreme_lines(from: usize, to: usize, centre: f32) -> [usize; 4] {
+    let last = to.saturating_sub(1).max(from);
+    let before = (centre as usize).clamp(from, last);
+    [from, before, (before + 1).min(last), last]
+}
+
 /// Centre of tile `t` along an axis of `size` pixels, px.
 fn tile_centre(t: usize, size: usize) -> f32 {
     let start = t * BACKGROUND_TILE;
@@ -676,13 +747,24 @@ fn region_cover(rect: (usize, usize, usize, usize), outside: impl Fn(usize, usiz
     inside as f32 / (GRID * GRID) as f32
 }
 
-/// Median of the pixels `(x, y)` of the tile `rect` (columns `.0..2`, rows `.1..3`) for which
-/// `keep(x, y)`, interpolated within its histogram bin, and how many pixels it took.
+/// What [`tile_median`] read of a tile's pixels.
+struct TileMedian {
+    /// The median, interpolated within its histogram bin, grey levels.
+    level: f32,
+    /// How many pixels it took.
+    pixels: usize,
+    /// The lowest and highest of them, grey levels (for a 16-bit chip, the edges of their
+    /// coarse bins).
+    range: (u16, u16),
+}
+
+/// The median of the pixels `(x, y)` of the tile `rect` (columns `.0..2`, rows `.1..3`) for
+/// which `keep(x, y)`.
 fn tile_median(
     chip: &ChipView,
     rect: (usize, usize, usize, usize),
     keep: impl Fn(usize, usize) -> bool,
-) -> (f32, usize) {
+) -> TileMedian {
     let (x0, y0, x1, y1) = rect;
     let shift = if chip.is_16bit() { 8 } else { 0 };
     let mut coarse = [0u32; 256];
@@ -695,12 +777,25 @@ fn tile_median(
     }
     let total: u32 = coarse.iter().sum();
     if total == 0 {
-        return (0.0, 0);
+        return TileMedian {
+            level: 0.0,
+            pixels: 0,
+            range: (0, u16::MAX),
+        };
     }
+    let lowest = coarse.iter().position(|&c| c > 0).unwrap_or(0) as u16;
+    let highest = coarse.iter().rposition(|&c| c > 0).unwrap_or(255) as u16;
+    let range = (lowest << shift, (highest << shift) | ((1u16 << shift) - 1));
     let half = total as f32 * 0.5;
     let (bin, below) = median_bin(&coarse, half);
+    let pixels = total as usize;
     if shift == 0 {
-        return (interpolated(bin, below, &coarse, half, 1.0), total as usize);
+        let level = interpolated(bin, below, &coarse, half, 1.0);
+        return TileMedian {
+            level,
+            pixels,
+            range,
+        };
     }
     // 16-bit: a second pass over the low byte of the values in the median's coarse bin.
     let mut fine = [0u32; 256];
@@ -714,7 +809,11 @@ fn tile_median(
     let (fine_bin, fine_below) = median_bin(&fine, half - below as f32);
     let level =
         (bin as f32) * 256.0 + interpolated(fine_bin, fine_below, &fine, half - below as f32, 1.0);
-    (level, total as usize)
+    TileMedian {
+        level,
+        pixels,
+        range,
+    }
 }
 
 /// The bin where the cumulative count reaches `half`, and the count below it.

@@ -7,7 +7,7 @@
 //! end. Capacities are const generics; running out is an error, never a truncation.
 
 use super::background::Background;
-use crate::capacity::MAX_CHIP_SIDE;
+use crate::capacity::{BACKGROUND_TILE, MAX_CHIP_SIDE, MAX_TILES_PER_SIDE};
 use crate::chip::ChipView;
 use crate::point::ImagePoint;
 
@@ -77,6 +77,47 @@ fn box_across(
             sum -= leaving;
         }
     }
+}
+
+/// Column spans of a chip row, left to right, one per run of neighbouring tiles at most.
+type Spans = heapless::Vec<core::ops::Range<usize>, MAX_TILES_PER_SIDE>;
+
+/// The spans of `columns` in tile row `ty` over the tiles whose pixels `classify` may give a
+/// nonzero class, by the bounds of their background-subtracted values
+/// ([`Background::residual_bounds`]; `scratch` holds a background row): where there are no
+/// bounds, all of `columns`.
+fn classed_spans(
+    chip: &ChipView,
+    background: &Background,
+    ty: usize,
+    columns: core::ops::Range<usize>,
+    scratch: &mut [f32],
+    classify: &impl Fn(f32) -> i8,
+) -> Spans {
+    let mut spans = Spans::new();
+    let mut bounds = [(f32::NEG_INFINITY, f32::INFINITY); MAX_TILES_PER_SIDE];
+    if !background.residual_bounds(chip, ty, scratch, &mut bounds) {
+        // One span: the vector holds at least one.
+        let _ = spans.push(columns);
+        return spans;
+    }
+    for (tx, &(low, high)) in bounds.iter().enumerate() {
+        let quiet =
+            low.is_finite() && high.is_finite() && classify(low) == 0 && classify(high) == 0;
+        let tile = tx * BACKGROUND_TILE..(tx + 1) * BACKGROUND_TILE;
+        let (from, to) = (tile.start.max(columns.start), tile.end.min(columns.end));
+        if quiet || from >= to {
+            continue;
+        }
+        match spans.last_mut() {
+            Some(last) if last.end == from => last.end = to,
+            // As many spans as tiles at most.
+            _ => {
+                let _ = spans.push(from..to);
+            }
+        }
+    }
+    spans
 }
 
 /// A horizontal run of pixels of one class.
@@ -272,8 +313,13 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
     }
 
     /// Labels `region` of the chip. Each pixel's background-subtracted value goes through
-    /// `classify`, which returns its class (0 for background). On success every label is resolved
-    /// and its statistics folded into its root.
+    /// `classify`, which returns its class (0 for background); the values it gives 0 must form
+    /// an interval (a band about zero, or a half-line). On success every label is resolved and
+    /// its statistics folded into its root.
+    ///
+    /// A tile of the background model ([`Background::residual_bounds`]) whose every pixel is
+    /// bound to class 0 is not read: on a clear sky that is most of the chip, and the runs are
+    /// the same as if it had been.
     pub fn label(
         &mut self,
         chip: &ChipView,
@@ -289,7 +335,8 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
     /// [`MAX_BOX_PX`]; clipped to the region): a body as wide as the box keeps its contrast while
     /// the noise falls by the box's side, so a faint body comes out whole. The runs' statistics
     /// are those of the pixels' own values. Each row is read once per row of the box (no row
-    /// store: the firmware's stack has no room for one).
+    /// store: the firmware's stack has no room for one). With a box of 1 px, this is
+    /// [`Labeler::label`].
     pub fn label_box(
         &mut self,
         chip: &ChipView,
@@ -302,6 +349,25 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
         self.parent.clear();
         self.moments.clear();
         let half = (box_px.clamp(1, MAX_BOX_PX) - 1) / 2;
+        if half == 0 {
+            self.label_pixels(chip, background, region, classify)
+        } else {
+            self.label_boxes(chip, background, region, half, classify)
+        }
+    }
+
+    /// [`Labeler::label_box`] on the box mean, `half` px (at least 1) on either side of each
+    /// pixel, the tables cleared. Not inlined, as [`Labeler::label_pixels`] is not: their row
+    /// buffers never share the firmware's stack.
+    #[inline(never)]
+    fn label_boxes(
+        &mut self,
+        chip: &ChipView,
+        background: &Background,
+        region: Rect,
+        half: usize,
+        classify: impl Fn(f32) -> i8,
+    ) -> Result<(), LabelError> {
         let x_start = usize::from(region.x0);
         let x_end = usize::from(region.x1).min(chip.width());
         let width = x_end.saturating_sub(x_start).min(MAX_CHIP_SIDE);
@@ -313,7 +379,7 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
         // of `held`, where they fit (a chip up to `HELD_FLOATS / MAX_BOX_PX` px wide); else
         // every row again for each box it is in, in slot 0.
         let side = 2 * half + 1;
-        let ring = half > 0 && side * width <= HELD_FLOATS;
+        let ring = side * width <= HELD_FLOATS;
         let mut held = [0.0f32; HELD_FLOATS];
         let mut box_row = [0.0f32; MAX_CHIP_SIDE];
         let mut class_row = [0i8; MAX_CHIP_SIDE];
@@ -325,45 +391,75 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
         let mut computed = y_start; // with the ring: the rows before this are in it
         let mut prev = 0..0;
         for y in y_start..y_end {
-            if half == 0 {
-                let Some(residuals) = held.get_mut(..width) else {
+            // The column sums over the box's rows (in order, from zero), then a running sum
+            // across the columns.
+            let rows = y.saturating_sub(half).max(y_start)..(y + half + 1).min(y_end);
+            let n_rows = rows.len().max(1) as f32;
+            boxed.fill(0.0);
+            for r in rows.clone() {
+                let Some(residuals) = held.get_mut(slot_of(r)..slot_of(r) + width) else {
                     return Ok(());
                 };
-                classified_row(
-                    chip,
-                    background,
-                    (y, x_start),
-                    residuals,
-                    classes,
-                    &classify,
-                );
-            } else {
-                // The column sums over the box's rows (in order, from zero), then a running
-                // sum across the columns.
-                let rows = y.saturating_sub(half).max(y_start)..(y + half + 1).min(y_end);
-                let n_rows = rows.len().max(1) as f32;
-                boxed.fill(0.0);
-                for r in rows.clone() {
-                    let Some(residuals) = held.get_mut(slot_of(r)..slot_of(r) + width) else {
-                        return Ok(());
-                    };
-                    if !ring || r >= computed {
-                        residuals_of_row(chip, background, r, x_start, residuals);
-                    }
-                    for (b, v) in boxed.iter_mut().zip(residuals.iter()) {
-                        *b += v;
-                    }
+                if !ring || r >= computed {
+                    residuals_of_row(chip, background, r, x_start, residuals);
                 }
-                computed = rows.end;
-                box_across(boxed, half, n_rows, classes, &classify);
-                if !ring && let Some(residuals) = held.get_mut(..width) {
-                    residuals_of_row(chip, background, y, x_start, residuals);
+                for (b, v) in boxed.iter_mut().zip(residuals.iter()) {
+                    *b += v;
                 }
+            }
+            computed = rows.end;
+            box_across(boxed, half, n_rows, classes, &classify);
+            if !ring && let Some(residuals) = held.get_mut(..width) {
+                residuals_of_row(chip, background, y, x_start, residuals);
             }
             let Some(residuals) = held.get(slot_of(y)..slot_of(y) + width) else {
                 return Ok(());
             };
             prev = self.push_row(chip, y, x_start, classes, residuals, prev)?;
+        }
+        self.resolve();
+        Ok(())
+    }
+
+    /// [`Labeler::label_box`] pixel by pixel (a box of 1 px), the tables cleared: each row read
+    /// only over the tiles whose pixels are not all bound to class 0 ([`classed_spans`]). Not
+    /// inlined: its row buffers and the box's never share the firmware's stack.
+    #[inline(never)]
+    fn label_pixels(
+        &mut self,
+        chip: &ChipView,
+        background: &Background,
+        region: Rect,
+        classify: impl Fn(f32) -> i8,
+    ) -> Result<(), LabelError> {
+        let columns = usize::from(region.x0)..usize::from(region.x1).min(chip.width());
+        let rows = usize::from(region.y0)..usize::from(region.y1).min(chip.height());
+        let mut residual_row = [0.0f32; MAX_CHIP_SIDE];
+        let mut class_row = [0i8; MAX_CHIP_SIDE];
+        let mut spans = Spans::new();
+        let mut tile_row = None;
+        let mut prev = 0..0;
+        for y in rows {
+            let ty = y / BACKGROUND_TILE;
+            if tile_row != Some(ty) {
+                tile_row = Some(ty);
+                let scratch = &mut residual_row;
+                spans = classed_spans(chip, background, ty, columns.clone(), scratch, &classify);
+            }
+            let row_start = self.runs.len();
+            for span in &spans {
+                let slots = span.start - columns.start..span.end - columns.start;
+                let (Some(residuals), Some(classes)) = (
+                    residual_row.get_mut(slots.clone()),
+                    class_row.get_mut(slots),
+                ) else {
+                    continue;
+                };
+                let at = (y, span.start);
+                classified_row(chip, background, at, residuals, classes, &classify);
+                self.push_row(chip, y, span.start, classes, residuals, prev.clone())?;
+            }
+            prev = row_start..self.runs.len();
         }
         self.resolve();
         Ok(())
@@ -603,6 +699,120 @@ mod tests {
         assert_eq!(big.len(), 1, "one component on the box mean: {big:?}");
         // The bar has 5 x 76 = 380 px; the box mean reaches a pixel or so beyond its edges.
         assert!((300..=620).contains(&big[0]), "{big:?}");
+    }
+
+    /// The tiles left unread are exactly those whose pixels all class 0: on a sky with a
+    /// gradient, noise, bodies of both polarities (one across a tile corner) and single pixels
+    /// just past the threshold, the runs cover
+    /// the same pixels with the same classes as classing every pixel against the background
+    /// row, in the whole chip and in a region cut across tiles; and most tiles were not read.
+    #[test]
+    fn unread_tiles_lose_no_classed_pixel() {
+        const W: usize = 160;
+        const H: usize = 128;
+        let sigma = 3.0f32;
+        let mut data = [0u8; W * H];
+        let mut state = 24_681_357u32;
+        for (i, v) in data.iter_mut().enumerate() {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            let u = (state >> 8) as f32 / (1u32 << 24) as f32;
+            let (x, y) = (i % W, i / W);
+            let (xf, yf) = (x as f32, y as f32);
+            let dark = (60..66).contains(&y) && (20..90).contains(&x);
+            let bright = (xf - 96.0).powi(2) + (yf - 32.0).powi(2) < 36.0;
+            let body = if dark {
+                -40.0
+            } else if bright {
+                30.0
+            } else {
+                0.0
+            };
+            let sky = 90.0 + 0.15 * xf + 0.1 * yf;
+            *v = (sky + (2.0 * u - 1.0) * 1.732 * sigma + body) as u8;
+        }
+        // Single pixels less than a grey level past the threshold, alone in their tiles, where
+        // the sky is lowest (for the bright ones) or highest (the dark one) in the tile: there
+        // the bounds are as tight as they get.
+        let specks = [(128, 0, 1.0f32), (32, 96, 1.0), (159, 127, -1.0)];
+        let mut bg = Background::new();
+        for _ in 0..2 {
+            let chip = ChipView::gray8(&data, W, H, W, 0, 0).unwrap();
+            bg.estimate(&chip);
+            let threshold = 4.5 * bg.sigma();
+            let mut sky = [0.0f32; W];
+            for (x, y, sign) in specks {
+                bg.fill_row(y, 0, &mut sky);
+                data[y * W + x] = (sky[x] + sign * (threshold + 0.5)).round() as u8;
+            }
+        }
+        let chip = ChipView::gray8(&data, W, H, W, 0, 0).unwrap();
+        bg.estimate(&chip);
+        let threshold = 4.5 * bg.sigma();
+        let classify = |r: f32| {
+            if r > threshold {
+                1
+            } else if r < -threshold {
+                -1
+            } else {
+                0
+            }
+        };
+        for region in [
+            Rect {
+                x0: 0,
+                y0: 0,
+                x1: W as u16,
+                y1: H as u16,
+            },
+            Rect {
+                x0: 13,
+                y0: 7,
+                x1: 121,
+                y1: 101,
+            },
+        ] {
+            let mut l = Labeler::<4096, 1024>::new();
+            l.label(&chip, &bg, region, classify).unwrap();
+            let mut labeled = [0i8; W * H];
+            for run in l.runs() {
+                let class = l.class_of(l.root(run.label));
+                for x in run.x0..=run.x1 {
+                    labeled[usize::from(run.y) * W + usize::from(x)] = class;
+                }
+            }
+            let mut sky = [0.0f32; W];
+            let mut classed = 0;
+            for y in usize::from(region.y0)..usize::from(region.y1) {
+                bg.fill_row(y, 0, &mut sky);
+                for x in usize::from(region.x0)..usize::from(region.x1) {
+                    let expected = classify(f32::from(data[y * W + x]) - sky[x]);
+                    assert_eq!(labeled[y * W + x], expected, "pixel ({x}, {y})");
+                    classed += usize::from(expected != 0);
+                }
+            }
+            assert!(classed > 400, "the bodies are classed: {classed} px");
+            for (x, y, sign) in specks {
+                if region.contains(ImagePoint::new(x as f32, y as f32)) {
+                    assert_eq!(labeled[y * W + x], sign as i8, "speck ({x}, {y})");
+                }
+            }
+        }
+        let mut scratch = [0.0f32; W];
+        let spans: [Spans; H / BACKGROUND_TILE] =
+            core::array::from_fn(|ty| classed_spans(&chip, &bg, ty, 0..W, &mut scratch, &classify));
+        // The tiles of the bodies and the single pixels, and no others (none of the region's).
+        let expected: [&[(usize, usize)]; 4] = [
+            &[(64, 160)],
+            &[(0, 128)],
+            &[(0, 96)],
+            &[(32, 64), (128, 160)],
+        ];
+        for (spans, expected) in spans.iter().zip(expected) {
+            let read = spans.iter().map(|span| (span.start, span.end));
+            assert!(read.eq(expected.iter().copied()), "{spans:?}");
+        }
     }
 
     #[test]
