@@ -12,7 +12,9 @@ use imade_core::{
     BodyPolarity, ChipError, ChipView, Config, DetectConfig, FrameInput, FrameResult, Pipeline,
     Status,
 };
-use imade_tests::render::{ChipStyle, Rng, TruePose, blur, chip_u8, coverage, project};
+use imade_tests::render::{
+    ChipStyle, Rng, TruePose, blur, centred_origin, chip_u8, coverage, project,
+};
 use imade_tests::{TELESCOPE, core_camera};
 
 fn pipeline(config: Config) -> Box<Pipeline> {
@@ -311,9 +313,7 @@ fn style(sky: f64, body: f64) -> ChipStyle {
 
 /// Full-frame origin of a `side` x `side` chip centred on the body origin.
 fn origin_of(pose: &TruePose, side: usize) -> (i64, i64) {
-    let (u, v) = project(&TELESCOPE, pose, [0.0; 3]);
-    let half = side as i64 / 2;
-    (u.round() as i64 - half, v.round() as i64 - half)
+    centred_origin(&TELESCOPE, pose, side)
 }
 
 fn render(pose: &TruePose, side: usize, style: &ChipStyle, seed: u64) -> (Vec<u8>, Vec<bool>) {

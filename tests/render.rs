@@ -60,6 +60,14 @@ pub fn project(cam: &Intrinsics, pose: &TruePose, b: V3) -> (f64, f64) {
     (cam.fx * p[0] / p[2] + cam.cx, cam.fy * p[1] / p[2] + cam.cy)
 }
 
+/// The full-frame origin of a `side` x `side` chip of camera `cam` centred on the body origin
+/// of `pose`, px.
+pub fn centred_origin(cam: &Intrinsics, pose: &TruePose, side: usize) -> (i64, i64) {
+    let (u, v) = project(cam, pose, [0.0; 3]);
+    let half = side as i64 / 2;
+    (u.round() as i64 - half, v.round() as i64 - half)
+}
+
 fn profile_radius(x: f64) -> f64 {
     let s = HALF_LENGTH - x;
     if !(0.0..=2.0 * HALF_LENGTH).contains(&s) {

@@ -39,6 +39,13 @@ use crate::track::Track;
 use crate::uncertainty::{self, AngleVariance, EndSd};
 use crate::world::{Flight, Motion, Mount, Side, Station, WorldStage};
 
+/// An aspect at least this, deg, reads broadside: the apparent length at the model's whole
+/// length or beyond (the closed form holds the aspect at 90 deg there).
+const BROADSIDE_DEG: f32 = 90.0 - 1e-3;
+/// Halvings of the search for the range at which a broadside body's length is the model's whole
+/// ([`Pipeline::aspect_interval`]): to 2^-16 of half the range.
+const WHOLE_LENGTH_HALVINGS: u32 = 16;
+
 /// A frame's input, checked: the range to use and the camera valid.
 struct CheckedInput<'a> {
     chip: &'a ChipView<'a>,
@@ -561,6 +568,38 @@ impl<
         })
     }
 
+    /// The ranges, m, at which `measured` is solved to carry a fractional sigma `fraction` of
+    /// its apparent length over the model's at `range_m` (or of that range) into the aspect:
+    /// `range_m (1 - fraction)` (at least half of it) and `range_m (1 + fraction)`. Where the
+    /// length reads the model's whole length or more even at the nearer one (the aspect held at
+    /// 90 deg at both: a body seen broadside, whose length tells its tilt only to second order),
+    /// the nearer is taken a fraction below the range at which the length would be just the
+    /// model's whole, so that the sigma holds what a length that much shorter allows (where
+    /// even half the range reads whole, that half).
+    fn aspect_interval(&self, measured: &Measurement, range_m: f32, fraction: f32) -> (f32, f32) {
+        let aspect_at = |r: f32| measured.at_range(&self.camera, &self.model, r).aspect_deg;
+        let near = range_m * (1.0 - fraction).max(0.5);
+        let far = range_m * (1.0 + fraction);
+        if aspect_at(near) < BROADSIDE_DEG {
+            return (near, far);
+        }
+        // The range at which the length is just whole, between half the range (where it reads
+        // less, unless the body reads twice the model's length) and the nearer one, by halving.
+        let (mut short, mut whole) = (0.5 * range_m, near);
+        if aspect_at(short) >= BROADSIDE_DEG {
+            return (short, far);
+        }
+        for _ in 0..WHOLE_LENGTH_HALVINGS {
+            let middle = 0.5 * (short + whole);
+            if aspect_at(middle) < BROADSIDE_DEG {
+                short = middle;
+            } else {
+                whole = middle;
+            }
+        }
+        (whole * (1.0 - fraction).max(0.5), far)
+    }
+
     /// The ok result of `measured` at the temporal `estimate`, its ends placed to `end_sd`: the
     /// angles' sigmas carry that and the range's sigma through the solution
     /// ([`crate::uncertainty`]); they are the chosen candidate's, not counting the choice.
@@ -590,13 +629,10 @@ impl<
             core::f32::consts::SQRT_2 * end_sd.along_px / length_px / libm::sqrtf(lengths);
         let range_fraction = estimate.range_sd_m.map_or(0.0, |sd| sd / estimate.range_m);
         let fraction =
-            libm::sqrtf(length_fraction * length_fraction + range_fraction * range_fraction)
-                .min(0.5);
+            libm::sqrtf(length_fraction * length_fraction + range_fraction * range_fraction);
         let mut variance = AngleVariance::default();
-        variance.add_half_gap(
-            &chosen_at(estimate.range_m * (1.0 + fraction)).1,
-            &chosen_at(estimate.range_m * (1.0 - fraction)).1,
-        );
+        let (near, far) = self.aspect_interval(measured, estimate.range_m, fraction);
+        variance.add_half_gap(&chosen_at(far).1, &chosen_at(near).1);
         let [tx_m, ty_m, tz_m] = solution.translation;
         let in_plane_rad = core::f32::consts::SQRT_2 * end_sd.across_px / length_px;
         variance.add_in_plane(
