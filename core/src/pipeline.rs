@@ -37,7 +37,7 @@ use crate::table_match::{MatchedPose, Measurement, TableMatch};
 use crate::temporal::{Estimate, Observation, Prediction, Temporal, YawChoice};
 use crate::track::Track;
 use crate::uncertainty::{self, AngleVariance, EndSd};
-use crate::world::{Flight, Motion, Mount, Side, Station, WorldStage};
+use crate::world::{self, Flight, Motion, Mount, Side, Station, WorldStage};
 
 /// An aspect at least this, deg, reads broadside: the apparent length at the model's whole
 /// length or beyond (the closed form holds the aspect at 90 deg there).
@@ -309,7 +309,24 @@ impl<
     /// frame came with the mount's pointing: where the velocity tells the nose from its mirror
     /// image ([`Motion::side`]), that candidate, resolved, and the estimate with that choice;
     /// where the velocity lies too near the image plane to tell, the choice unresolved.
+    ///
+    /// Whatever settled the side, it is left unresolved where the candidates lie within the
+    /// measurement's reach of each other ([`world::side_within_reach`]).
     fn placed(
+        &self,
+        solved: &Solved,
+        estimate: Estimate,
+        result: FrameResult,
+    ) -> (FrameResult, Estimate) {
+        let (mut result, estimate) = self.placed_by_motion(solved, estimate, result);
+        let sigmas = self.config.world.side_min_sigmas;
+        result.yaw_resolved &= !world::side_within_reach(&result, sigmas);
+        (result, estimate)
+    }
+
+    /// [`Pipeline::placed`] up to the measurement's reach: the side as the estimate and the
+    /// motion settle it.
+    fn placed_by_motion(
         &self,
         solved: &Solved,
         estimate: Estimate,
@@ -321,10 +338,15 @@ impl<
         let margin = self.config.world.side_margin_deg;
         let choice = |away: bool, resolved: bool| YawChoice { away, resolved };
         let away = estimate.choice.away;
+        // Without a sensor the velocity is as sure as the image's range
+        // (`WorldConfig::side_max_range_sd_fraction`); where it is not, it resolves the side
+        // only by agreeing with the range trend's resolved choice.
+        let max_sd = self.config.world.side_max_range_sd_fraction * estimate.range_m;
+        let sure = result.range_used || estimate.range_sd_m.is_some_and(|sd| sd <= max_sd);
         let choice = match motion.side(&result, margin) {
             None => None,
-            Some(Side::Chosen) => Some(choice(away, true)),
-            Some(Side::Mirrored) => Some(choice(!away, true)),
+            Some(Side::Chosen) => Some(choice(away, sure)),
+            Some(Side::Mirrored) => Some(choice(!away, sure)),
             Some(Side::Either) => Some(choice(away, false)),
         };
         let (mut result, estimate) = match choice {

@@ -28,6 +28,8 @@ pub struct FrameErrors {
     pub yaw_best: f64,
     /// True when the chosen candidate is the better one.
     pub yaw_choice_correct: bool,
+    /// True when the row says the choice is settled (`yaw_resolved`).
+    pub yaw_resolved: bool,
     /// True when a range measurement fixed Tz in this frame.
     pub range_used: bool,
     /// Where the row gives `tz_sd_m`: whether the Tz error is within two of those sigmas.
@@ -85,6 +87,11 @@ pub struct PoseEvaluation {
     pub parameters: Vec<ParameterErrors>,
     /// Fraction of frames with a pose whose chosen yaw candidate is the better one.
     pub yaw_choice_correct: Option<f64>,
+    /// Fraction of frames with a pose whose choice the row says is settled (`yaw_resolved`).
+    pub yaw_resolved: Option<f64>,
+    /// Of those, the fraction whose chosen candidate is the better one: how far `yaw_resolved`
+    /// can be trusted; None where no frame is resolved.
+    pub resolved_choice_correct: Option<f64>,
     /// Fraction of frames with `tz_sd_m` whose Tz error is within two of its sigmas (honest
     /// sigmas give about 95 %); None where no row has one.
     pub tz_within_two_sd: Option<f64>,
@@ -165,6 +172,7 @@ pub fn frame_errors(
         yaw,
         yaw_best: yaw.min(yaw_alt),
         yaw_choice_correct: yaw <= yaw_alt,
+        yaw_resolved: row.yaw_resolved,
         range_used: row.range_used,
         tz_within_two_sd: row
             .tz_sd_m
@@ -208,6 +216,9 @@ pub fn evaluate(
         })
         .collect();
     let correct = frames.iter().filter(|f| f.yaw_choice_correct).count();
+    let share = |part: usize, whole: usize| (whole > 0).then(|| part as f64 / whole as f64);
+    let resolved: Vec<&FrameErrors> = frames.iter().filter(|f| f.yaw_resolved).collect();
+    let resolved_correct = resolved.iter().filter(|f| f.yaw_choice_correct).count();
     let share_within = |within: fn(&FrameErrors) -> Option<bool>| {
         let judged: Vec<bool> = frames.iter().filter_map(within).collect();
         let inside = judged.iter().filter(|w| **w).count();
@@ -218,7 +229,9 @@ pub fn evaluate(
         frames_with_truth: truth.len(),
         frames_with_pose: frames.len(),
         parameters,
-        yaw_choice_correct: (!frames.is_empty()).then(|| correct as f64 / frames.len() as f64),
+        yaw_choice_correct: share(correct, frames.len()),
+        yaw_resolved: share(resolved.len(), frames.len()),
+        resolved_choice_correct: share(resolved_correct, resolved.len()),
         tz_within_two_sd: share_within(|f| f.tz_within_two_sd),
         pitch_within_two_sd: share_within(|f| f.pitch_within_two_sd),
         yaw_within_two_sd: share_within(|f| f.yaw_within_two_sd),
@@ -308,6 +321,39 @@ mod tests {
         assert_eq!((eval.frames_with_truth, eval.frames_with_pose), (2, 1));
         assert_eq!(eval.case, RangeCase::Unknown);
         assert_eq!(eval.yaw_choice_correct, Some(0.0));
+        assert_eq!(
+            (eval.yaw_resolved, eval.resolved_choice_correct),
+            (Some(0.0), None)
+        );
+    }
+
+    /// Of three frames with a pose, two resolved: one on the right side, one on the wrong;
+    /// the third, unresolved and wrong, does not count against `yaw_resolved`'s trust.
+    #[test]
+    fn a_resolved_choice_is_scored_apart() {
+        let resolved = |yaw: f64, yaw_alt: f64| ResultRow {
+            yaw_resolved: true,
+            ..row(yaw, yaw_alt)
+        };
+        let rows = [
+            ResultRow {
+                frame: Some(1),
+                ..resolved(1.0, 171.0)
+            },
+            ResultRow {
+                frame: Some(2),
+                ..resolved(171.0, 1.0)
+            },
+            ResultRow {
+                frame: Some(3),
+                ..row(1.0, 171.0)
+            },
+        ];
+        let truth: Vec<(u64, GroundTruth)> = (1..=3).map(|f| (f, truth())).collect();
+        let eval = evaluate(&truth, &rows, 90.0);
+        assert_eq!(eval.yaw_choice_correct, Some(1.0 / 3.0));
+        assert_eq!(eval.yaw_resolved, Some(2.0 / 3.0));
+        assert_eq!(eval.resolved_choice_correct, Some(0.5));
     }
 
     /// A roll is scored modulo the fins' spacing, per km, and only where the chosen candidate is

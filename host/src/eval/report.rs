@@ -133,15 +133,14 @@ fn write_pose_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Re
             }
         }
     }
-    write!(s, "\n| yaw choice correct | % |")?;
-    for e in evaluations {
-        write!(
-            s,
-            " {} | | | |",
-            opt(e.pose.yaw_choice_correct, |f| format!("{:.1}", 100.0 * f))
-        )?;
-    }
-    let coverage: [(&str, Share); 4] = [
+    let shares: [(&str, Share); 7] = [
+        ("yaw choice correct", |e| e.pose.yaw_choice_correct),
+        ("yaw choice resolved (`yaw_resolved`)", |e| {
+            e.pose.yaw_resolved
+        }),
+        ("yaw choice correct where resolved", |e| {
+            e.pose.resolved_choice_correct
+        }),
         ("Tz within two of its sigmas (tz_sd_m)", |e| {
             e.pose.tz_within_two_sd
         }),
@@ -157,7 +156,7 @@ fn write_pose_table(s: &mut String, evaluations: &[&Evaluation]) -> std::fmt::Re
             e.pose.roll_within_two_sd
         }),
     ];
-    for (label, share) in coverage {
+    for (label, share) in shares {
         write!(s, "\n| {label} | % |")?;
         for e in evaluations {
             write!(
