@@ -339,8 +339,8 @@ impl<
         let choice = |away: bool, resolved: bool| YawChoice { away, resolved };
         let away = estimate.choice.away;
         // Without a sensor the velocity is as sure as the image's range
-        // (`WorldConfig::side_max_range_sd_fraction`); where it is not, it resolves the side
-        // only by agreeing with the range trend's resolved choice.
+        // (`WorldConfig::side_max_range_sd_fraction`): where that is not sure, the velocity
+        // still picks the candidate, unresolved.
         let max_sd = self.config.world.side_max_range_sd_fraction * estimate.range_m;
         let sure = result.range_used || estimate.range_sd_m.is_some_and(|sd| sd <= max_sd);
         let choice = match motion.side(&result, margin) {

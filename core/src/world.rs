@@ -217,11 +217,12 @@ pub struct WorldConfig {
     /// trend's.
     pub side_margin_deg: f64,
     /// Without a range sensor the positions, and so the velocity, stand on the image's ranges:
-    /// the velocity resolves the yaw side only where the range's one sigma is at most this
-    /// fraction of it, or where it agrees with the range trend's resolved side. Elsewhere it
-    /// still picks the candidate, unresolved. On 18 simulated clutter clips without their range,
-    /// 19 % of the frames it resolved were on the wrong side; at 2 % they were 5 %, and the clear
-    /// bundled clips kept 198 of their 208 resolved frames.
+    /// the velocity resolves the yaw side only where the range's one sigma (`tz_sd_m`) is at
+    /// most this fraction of it; elsewhere it still picks the candidate, unresolved. On the
+    /// clear bundled clips 198 of the 208 frames resolved without the range had at most 2 %; on
+    /// 18 simulated clutter clips the median was 7 %, and 107 of their 229 resolved frames were
+    /// on the wrong side (13 of 47 with this and [`WorldConfig::side_min_sigmas`]:
+    /// docs/benchmarks.md, "The yaw side").
     pub side_max_range_sd_fraction: f32,
     /// Whatever told the side, it is reported unresolved where the two yaw candidates' noses
     /// lie within this many of their angle sigmas (`pitch_sd_deg` and `yaw_sd_deg` together)
