@@ -311,7 +311,8 @@ impl<
     /// where the velocity lies too near the image plane to tell, the choice unresolved.
     ///
     /// Whatever settled the side, it is left unresolved where the candidates lie within the
-    /// measurement's reach of each other ([`world::side_within_reach`]).
+    /// measurement's reach of each other ([`world::side_within_reach`]), unless a sensor's
+    /// velocity lies clear of the image plane ([`world::WorldConfig::side_clear_velocity_deg`]).
     fn placed(
         &self,
         solved: &Solved,
@@ -319,8 +320,14 @@ impl<
         result: FrameResult,
     ) -> (FrameResult, Estimate) {
         let (mut result, estimate) = self.placed_by_motion(solved, estimate, result);
-        let sigmas = self.config.world.side_min_sigmas;
-        result.yaw_resolved &= !world::side_within_reach(&result, sigmas);
+        let config = &self.config.world;
+        let velocity_clear = result.range_used
+            && solved
+                .motion
+                .and_then(|motion| motion.velocity_off_image_plane_deg(&result))
+                .is_some_and(|off| off > config.side_clear_velocity_deg);
+        result.yaw_resolved &=
+            velocity_clear || !world::side_within_reach(&result, config.side_min_sigmas);
         (result, estimate)
     }
 

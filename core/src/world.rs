@@ -229,6 +229,10 @@ pub struct WorldConfig {
     /// of each other ([`side_within_reach`]): a body crossing near 90 deg, whose nose lies so
     /// near the image plane that the measurement does not tell on which side.
     pub side_min_sigmas: f32,
+    /// ... unless a range sensor placed the positions and the velocity lies farther than this
+    /// from the image plane, deg: a projectile's nose lies within its angle of attack of the
+    /// velocity, so it is then on the velocity's side whatever its measured aspect.
+    pub side_clear_velocity_deg: f64,
     /// The velocity predicted for a frame from the positions before it tells the silhouette
     /// stage which end is the nose ([`Flight::in_chip`]) where it lies at least this far across
     /// the line of sight (the sine of its angle to it): its image then points within a few
@@ -245,6 +249,7 @@ impl WorldConfig {
         side_margin_deg: 1.0,
         side_max_range_sd_fraction: 0.02,
         side_min_sigmas: 2.0,
+        side_clear_velocity_deg: 3.0,
         min_flight_across: 0.5,
     };
 
@@ -298,6 +303,20 @@ impl Motion {
                 .and_then(|v| AngleOfAttack::of(&nose.into(), &v)),
             pose,
         }
+    }
+
+    /// How far the velocity lies from the image plane of `result` (the plane across its line of
+    /// sight, about which the mirror candidate is mirrored), deg, where it is known.
+    pub fn velocity_off_image_plane_deg(&self, result: &FrameResult) -> Option<f64> {
+        let velocity = Vector3::from(self.velocity_enu_m_s?);
+        let Pose {
+            tx_m, ty_m, tz_m, ..
+        } = result.pose;
+        let sight = self.mount.rotation_camera_to_world()
+            * Vector3::new(f64::from(tx_m), f64::from(ty_m), f64::from(tz_m));
+        let sine = velocity.dot(&sight) / (velocity.norm() * sight.norm());
+        sine.is_finite()
+            .then(|| libm::asin(libm::fabs(sine).min(1.0)).to_degrees())
     }
 
     /// Which yaw candidate of `result` the velocity points out, where it is known: the one
@@ -772,6 +791,30 @@ mod tests {
         };
         result.range_used = true;
         result
+    }
+
+    /// A camera looking north at a body 1 km away: a velocity 10 deg off east towards north
+    /// lies 10 deg off the image plane, one due east 0, one due north 90; none without one.
+    #[test]
+    fn the_velocitys_angle_to_the_image_plane() {
+        let mut result = FrameResult::failed(Status::Ok);
+        result.pose.tz_m = 1000.0;
+        let motion = |velocity_enu_m_s| Motion {
+            mount: Mount::new_checked(0.0, 0.0).unwrap(),
+            velocity_enu_m_s,
+        };
+        let (s, c) = libm::sincos(10f64.to_radians());
+        for (velocity, off_deg) in [
+            ([c, s, 0.0], 10.0),
+            ([250.0, 0.0, 0.0], 0.0),
+            ([0.0, -3.0, 0.0], 90.0),
+        ] {
+            let off = motion(Some(velocity))
+                .velocity_off_image_plane_deg(&result)
+                .unwrap();
+            assert!((off - off_deg).abs() < 1e-6, "{velocity:?}: {off}");
+        }
+        assert_eq!(motion(None).velocity_off_image_plane_deg(&result), None);
     }
 
     /// Mirror candidates 2 x 5 deg apart in yaw (a nose 5 deg off the image plane): within

@@ -350,6 +350,7 @@ fn config(spec: &ConfigSpec) -> Config {
                 min_flight_across: w[3],
                 side_max_range_sd_fraction: w[4] as f32,
                 side_min_sigmas: w[2] as f32,
+                side_clear_velocity_deg: w[4],
             },
             uncertainty: UncertaintyConfig {
                 end_gain: u[0],
