@@ -657,15 +657,11 @@ mod tests {
         let (w, h) = (96usize, 48usize);
         let sigma = 8.0f32;
         let mut data = [0u8; 96 * 48];
-        let mut state = 12345u32;
+        // Uniform on +-sqrt 3 sigma (standard deviation sigma).
+        let mut noise = crate::testing::uniform_noise(w * h, 12345);
         for y in 0..h {
             for x in 0..w {
-                // A xorshift pattern, uniform on +-sqrt 3 sigma (standard deviation sigma).
-                state ^= state << 13;
-                state ^= state >> 17;
-                state ^= state << 5;
-                let u = (state >> 8) as f32 / (1u32 << 24) as f32;
-                let noise = (2.0 * u - 1.0) * 1.732 * sigma;
+                let noise = noise.next().unwrap_or(0.0) * sigma;
                 let bar = (22..27).contains(&y) && (10..86).contains(&x);
                 let value = 100.0 + noise + if bar { 2.0 * sigma } else { 0.0 };
                 data[y * w + x] = value as u8;
@@ -712,12 +708,8 @@ mod tests {
         const H: usize = 128;
         let sigma = 3.0f32;
         let mut data = [0u8; W * H];
-        let mut state = 24_681_357u32;
-        for (i, v) in data.iter_mut().enumerate() {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            let u = (state >> 8) as f32 / (1u32 << 24) as f32;
+        let noise = crate::testing::uniform_noise(W * H, 24_681_357);
+        for (i, (v, noise)) in data.iter_mut().zip(noise).enumerate() {
             let (x, y) = (i % W, i / W);
             let (xf, yf) = (x as f32, y as f32);
             let dark = (60..66).contains(&y) && (20..90).contains(&x);
@@ -730,7 +722,7 @@ mod tests {
                 0.0
             };
             let sky = 90.0 + 0.15 * xf + 0.1 * yf;
-            *v = (sky + (2.0 * u - 1.0) * 1.732 * sigma + body) as u8;
+            *v = (sky + noise * sigma + body) as u8;
         }
         // Single pixels less than a grey level past the threshold, alone in their tiles, where
         // the sky is lowest (for the bright ones) or highest (the dark one) in the tile: there
@@ -823,16 +815,11 @@ mod tests {
         let h = 48usize;
         let sigma = 8.0f32;
         let mut data = [0u8; W * 48];
-        let mut state = 987_654_321u32;
-        for (i, v) in data.iter_mut().enumerate() {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            let u = (state >> 8) as f32 / (1u32 << 24) as f32;
+        let noise = crate::testing::uniform_noise(W * 48, 987_654_321);
+        for (i, (v, noise)) in data.iter_mut().zip(noise).enumerate() {
             let (x, y) = (i % W, i / W);
             let bar = (22..27).contains(&y) && (10..86).contains(&x);
-            let value =
-                100.0 + (2.0 * u - 1.0) * 1.732 * sigma + if bar { 2.0 * sigma } else { 0.0 };
+            let value = 100.0 + noise * sigma + if bar { 2.0 * sigma } else { 0.0 };
             *v = value as u8;
         }
         let chip = ChipView::gray8(&data, W, h, W, 0, 0).unwrap();
