@@ -16,7 +16,7 @@
 use crate::camera::Camera;
 use crate::capacity::{DEFAULT_MAX_LABELS, DEFAULT_MAX_RUNS, OUTLINE_COLUMNS};
 use crate::chip::ChipView;
-use crate::closed_form::Hypothesis;
+use crate::closed_form::{ClosedForm, Hypothesis};
 use crate::config::{Config, RangeUse};
 use crate::extremes::{self, Silhouette};
 use crate::flight_filter::{FlightStep, Sight};
@@ -597,27 +597,36 @@ impl<
         })
     }
 
-    /// The ranges, m, at which `measured` is solved to carry a fractional sigma `fraction` of
-    /// its apparent length over the model's at `range_m` (or of that range) into the aspect:
-    /// `range_m (1 - fraction)` (at least half of it) and `range_m (1 + fraction)`. Where the
+    /// `measured` solved at the two ranges that carry a fractional sigma `fraction` of its
+    /// apparent length over the model's at `range_m` (or of that range) into the aspect, nearer
+    /// and farther: `range_m (1 - fraction)` (at least half of it) and `range_m (1 + fraction)`.
+    /// Where the
     /// length reads the model's whole length or more even at the nearer one (the aspect held at
     /// 90 deg at both: a body seen broadside, whose length tells its tilt only to second order),
     /// the nearer is taken a fraction below the range at which the length would be just the
     /// model's whole, so that the sigma holds what a length that much shorter allows (where
     /// even half the range reads whole, that half).
-    fn aspect_interval(&self, measured: &Measurement, range_m: f32, fraction: f32) -> (f32, f32) {
-        let aspect_at = |r: f32| measured.at_range(&self.camera, &self.model, r).aspect_deg;
-        let near = range_m * (1.0 - fraction).max(0.5);
-        let far = range_m * (1.0 + fraction);
-        if aspect_at(near) < BROADSIDE_DEG {
+    fn aspect_interval(
+        &self,
+        measured: &Measurement,
+        range_m: f32,
+        fraction: f32,
+    ) -> (ClosedForm, ClosedForm) {
+        let solve = |r: f32| measured.at_range(&self.camera, &self.model, r);
+        let aspect_at = |r: f32| solve(r).aspect_deg;
+        let near_m = range_m * (1.0 - fraction).max(0.5);
+        let near = solve(near_m);
+        let far = solve(range_m * (1.0 + fraction));
+        if near.aspect_deg < BROADSIDE_DEG {
             return (near, far);
         }
         // The range at which the length is just whole, between half the range (where it reads
         // less, unless the body reads twice the model's length) and the nearer one, by halving.
-        let (mut short, mut whole) = (0.5 * range_m, near);
-        if aspect_at(short) >= BROADSIDE_DEG {
-            return (short, far);
+        let short_solution = solve(0.5 * range_m);
+        if short_solution.aspect_deg >= BROADSIDE_DEG {
+            return (short_solution, far);
         }
+        let (mut short, mut whole) = (0.5 * range_m, near_m);
         for _ in 0..WHOLE_LENGTH_HALVINGS {
             let middle = 0.5 * (short + whole);
             if aspect_at(middle) < BROADSIDE_DEG {
@@ -626,7 +635,7 @@ impl<
                 whole = middle;
             }
         }
-        (whole * (1.0 - fraction).max(0.5), far)
+        (solve(whole * (1.0 - fraction).max(0.5)), far)
     }
 
     /// The ok result of `measured` at the temporal `estimate`, its ends placed to `end_sd`: the
@@ -639,8 +648,7 @@ impl<
         end_sd: EndSd,
         track: TrackUse,
     ) -> FrameResult {
-        let chosen_at = |range_m: f32| {
-            let solution = measured.at_range(&self.camera, &self.model, range_m);
+        let pick = |solution: ClosedForm| {
             let [away, towards] = solution.candidates;
             if estimate.choice.away {
                 (solution, away, towards)
@@ -648,7 +656,8 @@ impl<
                 (solution, towards, away)
             }
         };
-        let (solution, chosen, alternative) = chosen_at(estimate.range_m);
+        let (solution, chosen, alternative) =
+            pick(measured.at_range(&self.camera, &self.model, estimate.range_m));
         let sil = &measured.hypothesis.silhouette;
         // The apparent length's fractional sigma moves the aspect as the range's does.
         let length_px = libm::fabsf(sil.nose_t - sil.tail_t);
@@ -661,7 +670,7 @@ impl<
             libm::sqrtf(length_fraction * length_fraction + range_fraction * range_fraction);
         let mut variance = AngleVariance::default();
         let (near, far) = self.aspect_interval(measured, estimate.range_m, fraction);
-        variance.add_half_gap(&chosen_at(far).1, &chosen_at(near).1);
+        variance.add_half_gap(&pick(far).1, &pick(near).1);
         let [tx_m, ty_m, tz_m] = solution.translation;
         let in_plane_rad = core::f32::consts::SQRT_2 * end_sd.across_px / length_px;
         variance.add_in_plane(
