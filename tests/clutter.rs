@@ -11,6 +11,13 @@ use imade_host::sim::scenario::Weather;
 use imade_host::sim::{Scenario, Simulation};
 use std::path::Path;
 
+/// Renders `scenario` into the clip folder `clip` (two threads).
+fn simulate(scenario: Scenario, clip: &Path) {
+    Simulation::new(scenario)
+        .and_then(|s| s.write_clip(clip, 2))
+        .unwrap_or_else(|e| panic!("{}: {e:#}", clip.display()));
+}
+
 /// The evaluation of the bundled clip `name` run with `range`: frames with a pose, median
 /// pitch and chosen yaw errors (deg/km), median IoU of the blind mask.
 fn run_clutter_clip(name: &str, range: RangeArg) -> (usize, f64, f64, f64) {
@@ -121,9 +128,7 @@ fn faint_body_frames(clear: bool) -> (Vec<FrameErrors>, usize) {
             scenario.randomize.filament_count = Some([0, 0]);
         }
         let clip = dir.join(format!("seed-{seed}"));
-        Simulation::new(scenario)
-            .and_then(|s| s.write_clip(&clip, 2))
-            .unwrap_or_else(|e| panic!("seed {seed}: {e:#}"));
+        simulate(scenario, &clip);
         let out = dir.join(format!("run-{seed}"));
         let evaluation =
             imade_tests::run_and_evaluate(&clip, "bundled", RangeArg::Auto, false, &out);
@@ -186,9 +191,7 @@ fn write_bright_body_clip(clip: &Path) {
     let mut scenario = Scenario::from_file(&file).expect("the scenario");
     scenario.seed = 21;
     scenario.randomize.bright_body_probability = Some(1.0);
-    Simulation::new(scenario)
-        .and_then(|s| s.write_clip(clip, 2))
-        .unwrap_or_else(|e| panic!("{e:#}"));
+    simulate(scenario, clip);
 }
 
 /// `clip` run with the body's polarity `polarity` into `dir`: frames with a pose, median pitch
@@ -243,9 +246,7 @@ fn the_flight_tells_the_nose_beside_a_plume_of_the_bodys_polarity() {
     let _ = std::fs::remove_dir_all(&dir);
     let mut scenario = imade_host::sim::presets::clutter_random(53);
     scenario.clip.frames = 30;
-    Simulation::new(scenario)
-        .and_then(|s| s.write_clip(&clip, 2))
-        .unwrap_or_else(|e| panic!("{e:#}"));
+    simulate(scenario, &clip);
     let evaluation =
         imade_tests::run_and_evaluate(&clip, "bundled", RangeArg::Auto, false, &dir.join("run"));
     let pitch = evaluation
@@ -275,9 +276,7 @@ fn without_a_range_among_clutter_a_resolved_side_is_the_right_one() {
         let mut scenario = imade_host::sim::presets::clutter_terrain(seed);
         scenario.clip.frames = 20;
         let clip = dir.join(format!("seed-{seed}"));
-        Simulation::new(scenario)
-            .and_then(|s| s.write_clip(&clip, 2))
-            .unwrap_or_else(|e| panic!("seed {seed}: {e:#}"));
+        simulate(scenario, &clip);
         let out = dir.join(format!("run-{seed}"));
         let pose =
             imade_tests::run_and_evaluate(&clip, "bundled", RangeArg::Ignore, false, &out).pose;
