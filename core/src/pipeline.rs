@@ -310,7 +310,10 @@ impl<
     /// image ([`Motion::side`]), that candidate, resolved, and the estimate with that choice;
     /// where the velocity lies too near the image plane to tell, the choice unresolved.
     ///
-    /// Whatever settled the side, it is left unresolved where the candidates lie within the
+    /// Where the velocity is sure, an angle of attack beyond [`world::WorldConfig::max_aoa_deg`]
+    /// and the frame's reach raises the pitch and yaw sigmas to the excess
+    /// ([`world::attitude_sd_floor_deg`]). Then,
+    /// whatever settled the side, it is left unresolved where the candidates lie within the
     /// measurement's reach of each other ([`world::side_within_reach`]), unless a sensor's
     /// velocity lies clear of the image plane ([`world::WorldConfig::side_clear_velocity_deg`]).
     fn placed(
@@ -321,6 +324,16 @@ impl<
     ) -> (FrameResult, Estimate) {
         let (mut result, estimate) = self.placed_by_motion(solved, estimate, result);
         let config = &self.config.world;
+        // An attitude far from a sure velocity is a failed measurement: its sigmas cover it.
+        if let Some(aoa) = result
+            .world
+            .and_then(|world| world.aoa)
+            .filter(|_| self.velocity_sure(&result, &estimate))
+        {
+            let floor = world::attitude_sd_floor_deg(&aoa, &result, config);
+            result.pitch_sd_deg = result.pitch_sd_deg.max(floor);
+            result.yaw_sd_deg = result.yaw_sd_deg.max(floor);
+        }
         let velocity_clear = result.range_used
             && solved
                 .motion
@@ -329,6 +342,14 @@ impl<
         result.yaw_resolved &=
             velocity_clear || !world::side_within_reach(&result, config.side_min_sigmas);
         (result, estimate)
+    }
+
+    /// Whether the velocity of the frame of `result` at `estimate` is sure: placed by a sensor's
+    /// ranges, or, without a sensor, as sure as the image's range
+    /// ([`world::WorldConfig::side_max_range_sd_fraction`]).
+    fn velocity_sure(&self, result: &FrameResult, estimate: &Estimate) -> bool {
+        let max_sd = self.config.world.side_max_range_sd_fraction * estimate.range_m;
+        result.range_used || estimate.range_sd_m.is_some_and(|sd| sd <= max_sd)
     }
 
     /// [`Pipeline::placed`] up to the measurement's reach: the side as the estimate and the
@@ -345,11 +366,8 @@ impl<
         let margin = self.config.world.side_margin_deg;
         let choice = |away: bool, resolved: bool| YawChoice { away, resolved };
         let away = estimate.choice.away;
-        // Without a sensor the velocity is as sure as the image's range
-        // (`WorldConfig::side_max_range_sd_fraction`): where that is not sure, the velocity
-        // still picks the candidate, unresolved.
-        let max_sd = self.config.world.side_max_range_sd_fraction * estimate.range_m;
-        let sure = result.range_used || estimate.range_sd_m.is_some_and(|sd| sd <= max_sd);
+        // Where the velocity is not sure, it still picks the candidate, unresolved.
+        let sure = self.velocity_sure(&result, &estimate);
         let choice = match motion.side(&result, margin) {
             None => None,
             Some(Side::Chosen) => Some(choice(away, sure)),

@@ -239,6 +239,14 @@ pub struct WorldConfig {
     /// degrees of the body's axis, however the body's ends look (a plume of the body's own
     /// polarity tapers like a nose).
     pub min_flight_across: f64,
+    /// A projectile in stable flight keeps its nose within a few degrees of its velocity: a
+    /// frame whose measured angle of attack exceeds this, deg, beyond the reach of its own
+    /// sigmas, where the velocity is sure (the side's rule: a sensor's range, or
+    /// [`WorldConfig::side_max_range_sd_fraction`]), has its attitude off by about the excess,
+    /// and its pitch and yaw sigmas are at least the excess ([`attitude_sd_floor_deg`]). On 18
+    /// simulated clutter clips with their range, the frames more than two sigmas off had a
+    /// median angle of attack of 39 deg, the others 3.3.
+    pub max_aoa_deg: f64,
 }
 
 impl WorldConfig {
@@ -251,6 +259,7 @@ impl WorldConfig {
         side_min_sigmas: 2.0,
         side_clear_velocity_deg: 3.0,
         min_flight_across: 0.5,
+        max_aoa_deg: 5.0,
     };
 
     /// Whether a frame at `time_s` continues the flight whose last position was at `last_s`
@@ -339,6 +348,25 @@ impl Motion {
         } else {
             Side::Mirrored
         })
+    }
+}
+
+/// The least one sigma of the pitch and yaw of the frame of `result`, deg, that its angle of
+/// attack `aoa` allows: where the angle exceeds [`WorldConfig::max_aoa_deg`] by more than two of
+/// the frame's own angle sigmas reach (`pitch_sd_deg` and `yaw_sd_deg` together), the nose is not
+/// where the frame measured it (a projectile flies within that angle of its velocity) by at
+/// least the excess, which is then the floor; zero otherwise (and where a sigma is NaN).
+pub fn attitude_sd_floor_deg(
+    aoa: &AngleOfAttack,
+    result: &FrameResult,
+    config: &WorldConfig,
+) -> f32 {
+    let excess = aoa.total_deg - config.max_aoa_deg;
+    let reach = 2.0 * libm::hypotf(result.pitch_sd_deg, result.yaw_sd_deg);
+    if excess > f64::from(reach) {
+        excess as f32
+    } else {
+        0.0
     }
 }
 
@@ -815,6 +843,30 @@ mod tests {
             assert!((off - off_deg).abs() < 1e-6, "{velocity:?}: {off}");
         }
         assert_eq!(motion(None).velocity_off_image_plane_deg(&result), None);
+    }
+
+    /// A nose 12 deg above a level velocity is 7 deg beyond a 5 deg angle of attack: with angle
+    /// sigmas of 1.5 and 2 deg (2 x 2.5 = 5 deg of reach) its attitude sigmas are at least 7
+    /// deg; with sigmas of 3 and 2.4 deg (reach 7.7 deg) the excess is within its reach, and a
+    /// nose 3 deg off is within 5 deg: no floor.
+    #[test]
+    fn an_angle_of_attack_beyond_the_flights_sets_the_attitude_sigmas_floor() {
+        let velocity = [200.0, 0.0, 0.0];
+        let mut result = FrameResult::failed(Status::Ok);
+        for (nose_deg, sds, floor_deg) in [
+            (12.0f64, (1.5, 2.0), 7.0f32),
+            (12.0, (3.0, 2.4), 0.0),
+            (3.0, (0.1, 0.1), 0.0),
+        ] {
+            (result.pitch_sd_deg, result.yaw_sd_deg) = sds;
+            let (s, c) = libm::sincos(nose_deg.to_radians());
+            let aoa = AngleOfAttack::of(&[c, 0.0, s], &velocity).unwrap();
+            let floor = attitude_sd_floor_deg(&aoa, &result, &WorldConfig::DEFAULT);
+            assert!(
+                (floor - floor_deg).abs() < 1e-4,
+                "{nose_deg} {sds:?}: {floor}"
+            );
+        }
     }
 
     /// Mirror candidates 2 x 5 deg apart in yaw (a nose 5 deg off the image plane): within
