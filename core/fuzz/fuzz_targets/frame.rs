@@ -105,7 +105,7 @@ enum ConfigSpec {
         /// Every tunable of the sky corridor, in its field order (None: the tiles' sky).
         corridor: Option<[f32; 6]>,
         /// Every tunable of the world stage, in its field order.
-        world: [f64; 5],
+        world: [f64; 8],
         /// The terrain's tunables: its float ones and its px ones, each in field order (None:
         /// not looked for).
         terrain: Option<([f32; 6], [u16; 3])>,
@@ -347,10 +347,11 @@ fn config(spec: &ConfigSpec) -> Config {
                 max_span_s: w[0],
                 max_gap_s: w[1],
                 side_margin_deg: w[2],
-                min_flight_across: w[3],
-                side_max_range_sd_fraction: w[4] as f32,
-                side_min_sigmas: w[2] as f32,
-                side_clear_velocity_deg: w[4],
+                side_max_range_sd_fraction: w[3] as f32,
+                side_min_sigmas: w[4] as f32,
+                side_clear_velocity_deg: w[5],
+                min_flight_across: w[6],
+                max_aoa_deg: w[7],
             },
             uncertainty: UncertaintyConfig {
                 end_gain: u[0],
