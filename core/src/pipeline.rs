@@ -312,10 +312,10 @@ impl<
     ///
     /// Where the velocity is sure, an angle of attack beyond [`world::WorldConfig::max_aoa_deg`]
     /// and the frame's reach raises the pitch and yaw sigmas to the excess
-    /// ([`world::attitude_sd_floor_deg`]). Then,
-    /// whatever settled the side, it is left unresolved where the candidates lie within the
-    /// measurement's reach of each other ([`world::side_within_reach`]), unless a sensor's
-    /// velocity lies clear of the image plane ([`world::WorldConfig::side_clear_velocity_deg`]).
+    /// ([`world::attitude_sd_floor_deg`]). Then, whatever settled the side, it is left
+    /// unresolved where the candidates lie within the measurement's reach of each other
+    /// ([`world::side_within_reach`]), unless a sensor's velocity lies clear of the image plane
+    /// ([`world::WorldConfig::side_clear_velocity_deg`]).
     fn placed(
         &self,
         solved: &Solved,

@@ -351,18 +351,24 @@ impl Motion {
     }
 }
 
+/// Angle sigmas of a frame whose reach its angle of attack must pass beyond
+/// [`WorldConfig::max_aoa_deg`] before the frame's attitude counts as failed
+/// ([`attitude_sd_floor_deg`]).
+const AOA_REACH_SIGMAS: f32 = 2.0;
+
 /// The least one sigma of the pitch and yaw of the frame of `result`, deg, that its angle of
-/// attack `aoa` allows: where the angle exceeds [`WorldConfig::max_aoa_deg`] by more than two of
-/// the frame's own angle sigmas reach (`pitch_sd_deg` and `yaw_sd_deg` together), the nose is not
-/// where the frame measured it (a projectile flies within that angle of its velocity) by at
-/// least the excess, which is then the floor; zero otherwise (and where a sigma is NaN).
+/// attack `aoa` allows. Where the angle exceeds [`WorldConfig::max_aoa_deg`] by more than the
+/// reach of two of the frame's own angle sigmas (`pitch_sd_deg` and `yaw_sd_deg` together), the
+/// nose is not where the frame measured it (a projectile flies within that angle of its
+/// velocity) by at least the excess, which is then the floor; zero otherwise (and where a sigma
+/// is NaN).
 pub fn attitude_sd_floor_deg(
     aoa: &AngleOfAttack,
     result: &FrameResult,
     config: &WorldConfig,
 ) -> f32 {
     let excess = aoa.total_deg - config.max_aoa_deg;
-    let reach = 2.0 * libm::hypotf(result.pitch_sd_deg, result.yaw_sd_deg);
+    let reach = AOA_REACH_SIGMAS * libm::hypotf(result.pitch_sd_deg, result.yaw_sd_deg);
     if excess > f64::from(reach) {
         excess as f32
     } else {
