@@ -108,8 +108,9 @@ pub struct Prediction {
     pub t: f32,
     /// The nose's image direction of the last frame with a pose, if any.
     pub nose_dir: Option<ImagePoint>,
-    /// The slant range expected at this frame from the recent ones (the last range in the
-    /// window carried along the trend), m; None before any.
+    /// The slant range expected at this frame, m: the flight filter's where it is sure
+    /// ([`FlightFilterConfig::size_fraction`]), else the recent ones' (the last range in the
+    /// window carried along the trend); None before any.
     pub range_m: Option<f32>,
     /// The flight filter's range for this frame and its sigma, where it is sure enough to hold
     /// the image's scale at ([`FlightFilterConfig::hold_fraction`]).
@@ -260,7 +261,8 @@ impl Temporal {
     /// window's last range (frames without one, no pose and no sensor, leave the trend's
     /// extrapolation to grow without a check, and a wrong prediction would keep the body, no
     /// longer of its size, from being found again), and only from three ranges or more that
-    /// scatter by at most `config.max_predicted_scatter`.
+    /// scatter by at most `config.max_predicted_scatter`; where the flight filter predicts the
+    /// range surely enough ([`FlightFilterConfig::size_fraction`]), its range instead.
     pub fn predict(&mut self, time_s: f64, config: &TemporalConfig) -> Prediction {
         let t = self.frame_time(time_s, config);
         let slope = self.trend().map_or(0.0, |tr| tr.slope);
@@ -274,12 +276,16 @@ impl Temporal {
             })
             .map(|last| last.range + slope * (t - last.t))
             .filter(|r| r.is_finite() && *r > 0.0);
-        let held_range = self
+        let flown = self
             .flight
             .predicted_range(f64::from(t), &config.flight)
-            .filter(|r| {
-                config.flight.enabled && r.sd_m < f64::from(config.flight.hold_fraction) * r.range_m
-            });
+            .filter(|_| config.flight.enabled);
+        let sure = |fraction: f32| move |r: &RangeReading| r.sd_m < f64::from(fraction) * r.range_m;
+        let range_m = flown
+            .filter(sure(config.flight.size_fraction))
+            .map(|r| r.range_m as f32)
+            .or(range_m);
+        let held_range = flown.filter(sure(config.flight.hold_fraction));
         Prediction {
             t,
             nose_dir: self.nose_dir,
@@ -622,6 +628,49 @@ mod tests {
             )
             .expect("the held frame lost its pose");
         assert_eq!(estimate.range_m, range.range_m as f32);
+    }
+
+    /// Among clutter the image ranges mostly read short (a filament or the plume widens the
+    /// silhouette): here every other frame's is 25 % short. The window's ranges then scatter
+    /// too much to predict from, while the flight's lines of sight and gravity fix the range:
+    /// once the flight is sure of it ([`FlightFilterConfig::size_fraction`]), the range
+    /// expected for the next frame (the body's size the detection looks for) is the flight's,
+    /// within 3 % of the truth. Without the flight, none is expected.
+    #[test]
+    fn the_size_expected_among_short_image_ranges_is_the_flights() {
+        let station = [-900.0, -600.0, 2.0];
+        let predicted = |config: &TemporalConfig| {
+            let mut temporal = Temporal::new();
+            for k in 0..30 {
+                let time_s = 0.5 * f64::from(k);
+                let prediction = temporal.predict(time_s, config);
+                let (range, sight) = flight_frame(station, time_s, 0.0);
+                let short = if k % 2 == 1 { 0.75 } else { 1.0 };
+                let observation = Observation {
+                    image_range_m: Some((range * short) as f32),
+                    nose_dir: ImagePoint::new(1.0, 0.0),
+                    scale: ImageScale::SHARP,
+                    sight: Some(sight),
+                    range_held: false,
+                };
+                temporal.update(&prediction, None, Some(observation), config);
+            }
+            temporal.predict(15.0, config).range_m
+        };
+        let (truth, _) = flight_frame(station, 15.0, 0.0);
+        let flown = predicted(&TemporalConfig::DEFAULT).expect("no range expected");
+        assert!(
+            libm::fabs(f64::from(flown) / truth - 1.0) < 0.03,
+            "{flown} m against {truth}"
+        );
+        let without_flight = TemporalConfig {
+            flight: FlightFilterConfig {
+                enabled: false,
+                ..FlightFilterConfig::DEFAULT
+            },
+            ..TemporalConfig::DEFAULT
+        };
+        assert_eq!(predicted(&without_flight), None);
     }
 
     /// Eq. 5's weight compounds over the frames a clip skipped: r for frames one interval apart

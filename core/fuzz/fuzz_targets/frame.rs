@@ -112,7 +112,7 @@ enum ConfigSpec {
         max_predicted_scatter: f32,
         /// The flight filter's float tunables in field order, its iterations, misses and whether
         /// it runs.
-        flight: ([f32; 13], u8, u8, bool),
+        flight: ([f32; 14], u8, u8, bool),
     },
 }
 
@@ -416,7 +416,8 @@ fn config(spec: &ConfigSpec) -> Config {
                     sight_gate_sigmas: f[10],
                     max_misses: u32::from(misses),
                     hold_fraction: f[11],
-                    max_step_s: f[12],
+                    size_fraction: f[12],
+                    max_step_s: f[13],
                     iterations: u32::from(iterations),
                 },
                 tz_smoothing_r,
