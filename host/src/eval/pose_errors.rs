@@ -222,7 +222,7 @@ pub fn evaluate(
     let share_within = |within: fn(&FrameErrors) -> Option<bool>| {
         let judged: Vec<bool> = frames.iter().filter_map(within).collect();
         let inside = judged.iter().filter(|w| **w).count();
-        (!judged.is_empty()).then(|| inside as f64 / judged.len() as f64)
+        share(inside, judged.len())
     };
     PoseEvaluation {
         case,
