@@ -322,14 +322,11 @@ impl<
         estimate: Estimate,
         result: FrameResult,
     ) -> (FrameResult, Estimate) {
-        let (mut result, estimate) = self.placed_by_motion(solved, estimate, result);
+        let sure = self.velocity_sure(&result, &estimate);
+        let (mut result, estimate) = self.placed_by_motion(solved, estimate, result, sure);
         let config = &self.config.world;
         // An attitude far from a sure velocity is a failed measurement: its sigmas cover it.
-        if let Some(aoa) = result
-            .world
-            .and_then(|world| world.aoa)
-            .filter(|_| self.velocity_sure(&result, &estimate))
-        {
+        if let Some(aoa) = result.world.and_then(|world| world.aoa).filter(|_| sure) {
             let floor = world::attitude_sd_floor_deg(&aoa, &result, config);
             result.pitch_sd_deg = result.pitch_sd_deg.max(floor);
             result.yaw_sd_deg = result.yaw_sd_deg.max(floor);
@@ -353,12 +350,14 @@ impl<
     }
 
     /// [`Pipeline::placed`] up to the measurement's reach: the side as the estimate and the
-    /// motion settle it.
+    /// motion settle it, resolved only where the velocity is `sure`
+    /// ([`Pipeline::velocity_sure`]).
     fn placed_by_motion(
         &self,
         solved: &Solved,
         estimate: Estimate,
         result: FrameResult,
+        sure: bool,
     ) -> (FrameResult, Estimate) {
         let Some(motion) = solved.motion.filter(|_| result.status == Status::Ok) else {
             return (result, estimate);
@@ -367,7 +366,6 @@ impl<
         let choice = |away: bool, resolved: bool| YawChoice { away, resolved };
         let away = estimate.choice.away;
         // Where the velocity is not sure, it still picks the candidate, unresolved.
-        let sure = self.velocity_sure(&result, &estimate);
         let choice = match motion.side(&result, margin) {
             None => None,
             Some(Side::Chosen) => Some(choice(away, sure)),
@@ -618,12 +616,11 @@ impl<
     /// `measured` solved at the two ranges that carry a fractional sigma `fraction` of its
     /// apparent length over the model's at `range_m` (or of that range) into the aspect, nearer
     /// and farther: `range_m (1 - fraction)` (at least half of it) and `range_m (1 + fraction)`.
-    /// Where the
-    /// length reads the model's whole length or more even at the nearer one (the aspect held at
-    /// 90 deg at both: a body seen broadside, whose length tells its tilt only to second order),
-    /// the nearer is taken a fraction below the range at which the length would be just the
-    /// model's whole, so that the sigma holds what a length that much shorter allows (where
-    /// even half the range reads whole, that half).
+    /// Where the length reads the model's whole length or more even at the nearer one (the
+    /// aspect held at 90 deg at both: a body seen broadside, whose length tells its tilt only to
+    /// second order), the nearer is taken a fraction below the range at which the length would
+    /// be just the model's whole, so that the sigma holds what a length that much shorter
+    /// allows (where even half the range reads whole, that half).
     fn aspect_interval(
         &self,
         measured: &Measurement,

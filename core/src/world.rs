@@ -351,6 +351,12 @@ impl Motion {
     }
 }
 
+/// One sigma of the nose's direction of `result`, deg: its pitch and yaw sigmas in quadrature
+/// (NaN where one is).
+fn attitude_sd_deg(result: &FrameResult) -> f32 {
+    libm::hypotf(result.pitch_sd_deg, result.yaw_sd_deg)
+}
+
 /// Angle sigmas of a frame whose reach its angle of attack must pass beyond
 /// [`WorldConfig::max_aoa_deg`] before the frame's attitude counts as failed
 /// ([`attitude_sd_floor_deg`]).
@@ -368,7 +374,7 @@ pub fn attitude_sd_floor_deg(
     config: &WorldConfig,
 ) -> f32 {
     let excess = aoa.total_deg - config.max_aoa_deg;
-    let reach = AOA_REACH_SIGMAS * libm::hypotf(result.pitch_sd_deg, result.yaw_sd_deg);
+    let reach = AOA_REACH_SIGMAS * attitude_sd_deg(result);
     if excess > f64::from(reach) {
         excess as f32
     } else {
@@ -384,9 +390,8 @@ pub fn side_within_reach(result: &FrameResult, sigmas: f32) -> bool {
     let nose = nose_direction(result.pose.pitch_deg, result.pose.yaw_deg);
     let mirrored = nose_direction(result.pitch_alt_deg, result.yaw_alt_deg);
     let half_apart_deg = 0.5 * libm::acosf(nose.dot(&mirrored).clamp(-1.0, 1.0)) * DEG;
-    let sd_deg = libm::hypotf(result.pitch_sd_deg, result.yaw_sd_deg);
     half_apart_deg
-        .partial_cmp(&(sigmas * sd_deg))
+        .partial_cmp(&(sigmas * attitude_sd_deg(result)))
         .is_none_or(|order| order.is_le())
 }
 
