@@ -198,6 +198,40 @@ impl<'a> ChipView<'a> {
         }
     }
 
+    /// The lowest and highest sample of row `y` in columns `x_start..x_end` (clipped to the
+    /// chip); None where that holds no sample.
+    #[inline]
+    pub fn span_range(&self, y: usize, x_start: usize, x_end: usize) -> Option<(u16, u16)> {
+        let x_end = x_end.min(self.width);
+        if y >= self.height || x_start >= x_end {
+            return None;
+        }
+        let start = y * self.stride;
+        let span = start + x_start..start + x_end;
+        match self.samples {
+            Samples::Gray8(d) => {
+                let row = d.get(span)?;
+                let extremes = |(low, high): (u8, u8), &v: &u8| (low.min(v), high.max(v));
+                // Eight samples at a time, in a loop unrolled by their fixed count (the
+                // labeler's screen reads a few dozen, often).
+                let mut chunks = row.chunks_exact(8);
+                let mut range = (u8::MAX, 0);
+                for chunk in &mut chunks {
+                    if let Ok(eight) = <&[u8; 8]>::try_from(chunk) {
+                        range = eight.iter().fold(range, extremes);
+                    }
+                }
+                let (low, high) = chunks.remainder().iter().fold(range, extremes);
+                Some((u16::from(low), u16::from(high)))
+            }
+            Samples::Gray16(d) => Some(
+                d.get(span)?
+                    .iter()
+                    .fold((u16::MAX, 0), |(low, high), &v| (low.min(v), high.max(v))),
+            ),
+        }
+    }
+
     /// Calls `f(x, value)` for the samples of row `y` in columns `x_start..x_end` (clipped to
     /// the chip).
     #[inline]

@@ -496,39 +496,18 @@ impl Background {
         }
     }
 
+    /// Whether the background of `chip`'s rows is the tiles' alone, to be read a row at a time
+    /// through [`RowLevels`]: not where the sky follows a corridor, or `chip` is not the one
+    /// estimated.
+    pub fn from_tiles(&self, chip: &ChipView) -> bool {
+        self.corridor.is_none() && chip.width() == self.width && chip.height() == self.height
+    }
+
     /// [`Background::fill_row`] from the tiles alone.
     fn fill_row_from_tiles(&self, y: usize, x_start: usize, out: &mut [f32]) {
-        let (y0, y1, wy) = self.rows.weights(y as f32, self.tiles_y, self.height);
-        // The row's level at every tile centre, then linear between neighbouring centres.
-        let mut centres = [0.0f32; MAX_TILES_PER_SIDE];
-        for (tx, c) in centres.iter_mut().enumerate().take(self.tiles_x) {
-            *c = self.level(tx, y0) * (1.0 - wy) + self.level(tx, y1) * wy;
-        }
-        // Linear between neighbouring centres, flat beyond the outer ones, filled piece by piece
-        // (a pixel costs a multiply-add): piece `t` holds the pixels after centre `t` up to
-        // centre `t + 1`; before the first centre and after the last the level is flat.
-        let level = |t: usize| centres.get(t).copied().unwrap_or(0.0);
-        let last = self.tiles_x.saturating_sub(1);
-        let after = |t: usize| tile_centre(t, self.width) as usize + 1;
-        let end = x_start + out.len();
-        let mut fill =
-            |from: usize, to: usize, value: Piece| fill_piece(out, x_start, from, to, value);
-        if last == 0 {
-            fill(x_start, end, (level(0), 0.0, 0.0));
-            return;
-        }
-        fill(x_start, after(0), (level(0), 0.0, 0.0));
-        for t in 0..last {
-            let (c0, c1) = (tile_centre(t, self.width), tile_centre(t + 1, self.width));
-            let (left, right) = (level(t), level(t + 1));
-            let slope = if c1 > c0 {
-                (right - left) / (c1 - c0)
-            } else {
-                0.0
-            };
-            fill(after(t), after(t + 1), (left, slope, c0));
-        }
-        fill(after(last), end, (level(last), 0.0, 0.0));
+        let mut row = RowLevels::new();
+        row.set(self, y);
+        row.fill(x_start, out);
     }
 
     fn noise_sigma_of(&self, chip: &ChipView) -> f32 {
@@ -620,6 +599,140 @@ impl SkyRow<'_> {
             *slot = bilinear_blend(corners, wx, wy);
         }
         background.overlay_corridor(self.y, x_start, out);
+    }
+}
+
+/// One chip row's background from the tiles, as pieces linear between the tile centres, set
+/// for a row ([`RowLevels::set`]) and then written over spans of its columns
+/// ([`RowLevels::fill`]) or bounded a few columns at a time ([`RowLevels::try_for_each_group`]):
+/// the labeler passes over columns whose pixels cannot leave the sky.
+pub struct RowLevels {
+    /// Each tile column's piece: the row's level at its centre, grey levels, the slope on to
+    /// the next centre, grey levels per px (0 from the last), and the centre, px.
+    pieces: [Piece; MAX_TILES_PER_SIDE],
+    tiles: usize,
+    /// Room for the interpolations' rounding, grey levels.
+    margin: f32,
+}
+
+impl Default for RowLevels {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl RowLevels {
+    /// No row: a flat zero background.
+    pub const fn new() -> Self {
+        RowLevels {
+            pieces: [(0.0, 0.0, 0.0); MAX_TILES_PER_SIDE],
+            tiles: 0,
+            margin: 0.0,
+        }
+    }
+
+    /// Takes row `y` of `background` (the tiles' levels, with no corridor).
+    pub fn set(&mut self, background: &Background, y: usize) {
+        let (tiles, width) = (background.tiles_x, background.width);
+        let (y0, y1, wy) = background
+            .rows
+            .weights(y as f32, background.tiles_y, background.height);
+        // The row's level at every tile centre, then the slopes between neighbouring centres.
+        let level = |t: usize| background.level(t, y0) * (1.0 - wy) + background.level(t, y1) * wy;
+        let mut highest = 0.0f32;
+        let mut next = (level(0), tile_centre(0, width));
+        for (t, piece) in self.pieces.iter_mut().enumerate().take(tiles) {
+            let (left, c0) = next;
+            next = (level(t + 1), tile_centre(t + 1, width));
+            let (right, c1) = next;
+            let slope = if t + 1 < tiles && c1 > c0 {
+                (right - left) / (c1 - c0)
+            } else {
+                0.0
+            };
+            *piece = (left, slope, c0);
+            highest = highest.max(libm::fabsf(left));
+        }
+        self.tiles = tiles;
+        // As [`Background::residual_bounds`]: with room to spare (every value between two
+        // levels is at most the largest in magnitude).
+        self.margin = 1e-3 + 1e-5 * highest;
+    }
+
+    /// The row's level at tile column `t`'s centre, grey levels.
+    fn level(&self, t: usize) -> f32 {
+        self.pieces.get(t).map_or(0.0, |piece| piece.0)
+    }
+
+    /// Writes the row's background at columns `x_start..x_start + out.len()` into `out`: linear
+    /// between neighbouring centres, flat beyond the outer ones, filled piece by piece (a pixel
+    /// costs a multiply-add): piece `t` holds the pixels after centre `t` up to centre `t + 1`.
+    pub fn fill(&self, x_start: usize, out: &mut [f32]) {
+        let last = self.tiles.saturating_sub(1);
+        let after = |t: usize| self.pieces.get(t).map_or(0, |piece| piece.2 as usize + 1);
+        let end = x_start + out.len();
+        let mut fill =
+            |from: usize, to: usize, value: Piece| fill_piece(out, x_start, from, to, value);
+        let flat = |t: usize| (self.level(t), 0.0, 0.0);
+        if last == 0 {
+            fill(x_start, end, flat(0));
+            return;
+        }
+        fill(x_start, after(0), flat(0));
+        for (t, &piece) in self.pieces.iter().enumerate().take(last) {
+            fill(after(t), after(t + 1), piece);
+        }
+        fill(after(last), end, flat(last));
+    }
+
+    /// Cuts `columns` into groups of `group` px, aligned to multiples of it and each within one
+    /// tile, and calls `f(group's columns, lowest, highest)` with the lowest and highest
+    /// background over each, grey levels, widened by room for the rounding: every value
+    /// [`Background::fill_row`] writes there lies between them. The background is linear
+    /// between neighbouring tile centres and flat beyond the outer ones, so over a group its
+    /// extremes lie at the first and last column and at the centre where the group holds it.
+    /// Stops at the first error. Columns beyond the tiles are one group, unbounded.
+    pub fn try_for_each_group<E>(
+        &self,
+        columns: core::ops::Range<usize>,
+        group: usize,
+        mut f: impl FnMut(core::ops::Range<usize>, f32, f32) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let group = group.clamp(1, BACKGROUND_TILE);
+        let mut from = columns.start;
+        while from < columns.end {
+            let t = from / BACKGROUND_TILE;
+            let Some(&(level, slope, centre)) = self.pieces.get(t).filter(|_| t < self.tiles)
+            else {
+                return f(from..columns.end, f32::NEG_INFINITY, f32::INFINITY);
+            };
+            // The piece from the centre before (flat before the first centre) and this one's.
+            let before = t
+                .checked_sub(1)
+                .and_then(|p| self.pieces.get(p).copied())
+                .unwrap_or((level, 0.0, centre));
+            let this = (level, slope, centre);
+            let on = |(level, slope, centre): Piece, x: f32| level + slope * (x - centre);
+            let tile_end = ((t + 1) * BACKGROUND_TILE).min(columns.end);
+            while from < tile_end {
+                let to = ((from / group + 1) * group).min(tile_end);
+                let (x0, x1) = (from as f32, (to - 1) as f32);
+                let (first, last) = if x1 < centre {
+                    (on(before, x0), on(before, x1))
+                } else if x0 >= centre {
+                    (on(this, x0), on(this, x1))
+                } else {
+                    (on(before, x0), on(this, x1))
+                };
+                let (mut low, mut high) = (first.min(last), first.max(last));
+                if x0 < centre && centre <= x1 {
+                    (low, high) = (low.min(level), high.max(level));
+                }
+                f(from..to, low - self.margin, high + self.margin)?;
+                from = to;
+            }
+        }
+        Ok(())
     }
 }
 
@@ -1000,6 +1113,55 @@ mod tests {
                             assert_eq!(filled[x].to_bits(), direct.to_bits());
                         }
                     }
+                }
+            }
+        }
+    }
+
+    /// A row's groups, bounded by [`RowLevels::try_for_each_group`], cover its columns in order
+    /// and hold every value [`Background::fill_row`] writes in them, with no more room than the
+    /// rounding's: on noisy tiles, chips with partial tiles, groups that do and do not divide a
+    /// tile.
+    #[test]
+    fn a_rows_group_bounds_hold_its_filled_background() {
+        let mut data = [0u8; 300 * 300];
+        for (i, v) in data.iter_mut().enumerate() {
+            *v = ((i * 7919) % 251) as u8 / 2 + (i / 300 / 5) as u8;
+        }
+        let mut levels = RowLevels::new();
+        for (w, h) in [(1, 1), (5, 300), (32, 33), (100, 65), (256, 256), (300, 97)] {
+            let chip = ChipView::gray8(&data, w, h, 300, 0, 0).unwrap();
+            let mut bg = Background::new();
+            bg.estimate(&chip);
+            assert!(bg.from_tiles(&chip));
+            let mut row = [0.0f32; 300];
+            for y in 0..h {
+                bg.fill_row(y, 0, &mut row[..w]);
+                levels.set(&bg, y);
+                for group in [5, 8, 16] {
+                    let mut next = 0;
+                    let result: Result<(), ()> =
+                        levels.try_for_each_group(0..w, group, |columns, low, high| {
+                            assert_eq!(columns.start, next, "in order");
+                            assert!(columns.end > columns.start && columns.len() <= group);
+                            let tile = columns.start / BACKGROUND_TILE;
+                            assert_eq!((columns.end - 1) / BACKGROUND_TILE, tile, "one tile");
+                            next = columns.end;
+                            let filled = &row[columns];
+                            let lowest = filled.iter().copied().fold(f32::INFINITY, f32::min);
+                            let highest = filled.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+                            assert!(low <= lowest && highest <= high, "({y}) {low} {high}");
+                            // Where the group holds a centre between two pixels, its level,
+                            // less than a pixel's step beyond theirs, is in the bounds.
+                            let step = filled
+                                .windows(2)
+                                .map(|pair| (pair[1] - pair[0]).abs())
+                                .fold(0.0, f32::max);
+                            let room = 5e-3 + step;
+                            assert!(lowest - low < room && high - highest < room, "({y})");
+                            Ok(())
+                        });
+                    assert_eq!((result, next), (Ok(()), w));
                 }
             }
         }

@@ -6,7 +6,7 @@
 //! union-find table; statistics accumulate per provisional label and fold into the roots at the
 //! end. Capacities are const generics; running out is an error, never a truncation.
 
-use super::background::Background;
+use super::background::{Background, RowLevels};
 use crate::capacity::{BACKGROUND_TILE, MAX_CHIP_SIDE, MAX_TILES_PER_SIDE};
 use crate::chip::ChipView;
 use crate::point::ImagePoint;
@@ -32,16 +32,16 @@ fn residuals_of_row(
     });
 }
 
-/// [`residuals_of_row`], each value also classed by `classify` into `classes` in the same pass.
+/// The background-subtracted values of row `y` from column `x_start` into `out`, which holds
+/// the background there on entry, each value also classed by `classify` into `classes` in the
+/// same pass.
 fn classified_row(
     chip: &ChipView,
-    background: &Background,
     (y, x_start): (usize, usize),
     out: &mut [f32],
     classes: &mut [i8],
     classify: &impl Fn(f32) -> i8,
 ) {
-    background.fill_row(y, x_start, out);
     let slots = out.iter_mut().zip(classes.iter_mut());
     chip.zip_span(y, x_start, slots, |value, (r, class)| {
         *r = f32::from(value) - *r;
@@ -118,6 +118,48 @@ fn classed_spans(
         }
     }
     spans
+}
+
+/// Columns of a row bounded at a time by [`busy_spans`]: over so few the sky varies little and
+/// the noise's extremes stay near its deviation, so the bounds are tight; aligned to multiples
+/// of it, a group never straddles two tiles.
+const SCREEN_PX: usize = 16;
+
+// A group lies in one tile.
+const _: () = assert!(BACKGROUND_TILE % SCREEN_PX == 0);
+
+/// Calls `label` with each span of `columns` of row `y` that holds a pixel `classify` may give
+/// a nonzero class: the columns are bounded [`SCREEN_PX`] at a time, by the extremes of their
+/// samples against those of the row's background `levels` ([`RowLevels::try_for_each_group`]);
+/// neighbouring busy groups make one span. A span left out holds only class 0, so the
+/// runs are those of labeling all of `columns`.
+fn busy_spans<E>(
+    chip: &ChipView,
+    levels: &RowLevels,
+    y: usize,
+    columns: core::ops::Range<usize>,
+    classify: &impl Fn(f32) -> i8,
+    mut label: impl FnMut(core::ops::Range<usize>) -> Result<(), E>,
+) -> Result<(), E> {
+    let mut busy: Option<core::ops::Range<usize>> = None;
+    levels.try_for_each_group(columns, SCREEN_PX, |group, low, high| {
+        let quiet = chip
+            .span_range(y, group.start, group.end)
+            .is_some_and(|(lowest, highest)| {
+                classify(f32::from(lowest) - high) == 0 && classify(f32::from(highest) - low) == 0
+            });
+        match (&mut busy, quiet) {
+            (Some(span), false) => span.end = group.end,
+            (None, false) => busy = Some(group),
+            (_, true) => {
+                if let Some(span) = busy.take() {
+                    return label(span);
+                }
+            }
+        }
+        Ok(())
+    })?;
+    busy.map_or(Ok(()), label)
 }
 
 /// A horizontal run of pixels of one class.
@@ -318,8 +360,9 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
     /// its statistics folded into its root.
     ///
     /// A tile of the background model ([`Background::residual_bounds`]) whose every pixel is
-    /// bound to class 0 is not read: on a clear sky that is most of the chip, and the runs are
-    /// the same as if it had been.
+    /// bound to class 0 is not read: on a clear sky that is most of the chip. In the other
+    /// tiles, a row's pixels are bounded 16 at a time against the sky ([`RowLevels`]) and only
+    /// those that may leave it are classed. The runs are the same as if every pixel had been.
     pub fn label(
         &mut self,
         chip: &ChipView,
@@ -439,6 +482,9 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
         let mut spans = Spans::new();
         let mut tile_row = None;
         let mut prev = 0..0;
+        // The rows' background from the tiles, bounded to pass over the quiet columns.
+        let from_tiles = background.from_tiles(chip);
+        let mut levels = RowLevels::new();
         for y in rows {
             let ty = y / BACKGROUND_TILE;
             if tile_row != Some(ty) {
@@ -447,17 +493,32 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
                 spans = classed_spans(chip, background, ty, columns.clone(), scratch, &classify);
             }
             let row_start = self.runs.len();
-            for span in &spans {
+            if from_tiles && !spans.is_empty() {
+                levels.set(background, y);
+            }
+            let mut label_span = |span: core::ops::Range<usize>| {
                 let slots = span.start - columns.start..span.end - columns.start;
                 let (Some(residuals), Some(classes)) = (
                     residual_row.get_mut(slots.clone()),
                     class_row.get_mut(slots),
                 ) else {
-                    continue;
+                    return Ok(());
                 };
-                let at = (y, span.start);
-                classified_row(chip, background, at, residuals, classes, &classify);
-                self.push_row(chip, y, span.start, classes, residuals, prev.clone())?;
+                if from_tiles {
+                    levels.fill(span.start, residuals);
+                } else {
+                    background.fill_row(y, span.start, residuals);
+                }
+                classified_row(chip, (y, span.start), residuals, classes, &classify);
+                self.push_row(chip, y, span.start, classes, residuals, prev.clone())
+                    .map(|_| ())
+            };
+            for span in &spans {
+                if from_tiles {
+                    busy_spans(chip, &levels, y, span.clone(), &classify, &mut label_span)?;
+                } else {
+                    label_span(span.clone())?;
+                }
             }
             prev = row_start..self.runs.len();
         }
@@ -790,6 +851,16 @@ mod tests {
                     assert_eq!(labeled[y * W + x], sign as i8, "speck ({x}, {y})");
                 }
             }
+        }
+        // Within the read tiles, the screen: on a row of the dark bar (columns 20 to 89) only
+        // the groups the bar lies in are labeled, on a row of sky alone none.
+        let mut levels = RowLevels::new();
+        for (y, expected) in [(62, &[(16, 96)][..]), (20, &[][..])] {
+            levels.set(&bg, y);
+            let mut spans = heapless::Vec::<(usize, usize), 8>::new();
+            let mut push = |s: core::ops::Range<usize>| spans.push((s.start, s.end));
+            busy_spans(&chip, &levels, y, 0..W, &classify, &mut push).unwrap();
+            assert_eq!(&spans[..], expected, "row {y}");
         }
         let mut scratch = [0.0f32; W];
         let spans: [Spans; H / BACKGROUND_TILE] =
