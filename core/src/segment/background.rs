@@ -66,6 +66,8 @@ struct AxisTable {
     t1: [u8; MAX_CHIP_SIDE],
     w: [f32; MAX_CHIP_SIDE],
     len: usize,
+    /// Each tile's centre along the axis, px ([`tile_centre`]).
+    centres: [f32; MAX_TILES_PER_SIDE],
 }
 
 // Tile indices are stored as u8.
@@ -78,11 +80,15 @@ impl AxisTable {
             t1: [0; MAX_CHIP_SIDE],
             w: [0.0; MAX_CHIP_SIDE],
             len: 0,
+            centres: [0.0; MAX_TILES_PER_SIDE],
         }
     }
 
     /// Tabulates [`axis_weights`] for the pixels of an axis of `size` px and `tiles` tiles.
     fn fill(&mut self, tiles: usize, size: usize) {
+        for (t, centre) in self.centres.iter_mut().enumerate().take(tiles) {
+            *centre = tile_centre(t, size);
+        }
         self.len = size.min(MAX_CHIP_SIDE);
         for p in 0..self.len {
             let (t0, t1, w) = axis_weights(p as f32, tiles, size);
@@ -633,25 +639,33 @@ impl RowLevels {
 
     /// Takes row `y` of `background` (the tiles' levels, with no corridor).
     pub fn set(&mut self, background: &Background, y: usize) {
-        let (tiles, width) = (background.tiles_x, background.width);
+        let tiles = background.tiles_x;
         let (y0, y1, wy) = background
             .rows
             .weights(y as f32, background.tiles_y, background.height);
         // The row's level at every tile centre, then the slopes between neighbouring centres.
         let level = |t: usize| background.level(t, y0) * (1.0 - wy) + background.level(t, y1) * wy;
+        let centres = &background.columns.centres;
         let mut highest = 0.0f32;
-        let mut next = (level(0), tile_centre(0, width));
-        for (t, piece) in self.pieces.iter_mut().enumerate().take(tiles) {
-            let (left, c0) = next;
-            next = (level(t + 1), tile_centre(t + 1, width));
-            let (right, c1) = next;
-            let slope = if t + 1 < tiles && c1 > c0 {
-                (right - left) / (c1 - c0)
-            } else {
-                0.0
+        let mut left = level(0);
+        for (t, (piece, &c0)) in self.pieces.iter_mut().zip(centres).enumerate().take(tiles) {
+            let (right, slope) = match centres.get(t + 1) {
+                Some(&c1) if t + 1 < tiles => {
+                    let right = level(t + 1);
+                    (
+                        right,
+                        if c1 > c0 {
+                            (right - left) / (c1 - c0)
+                        } else {
+                            0.0
+                        },
+                    )
+                }
+                _ => (left, 0.0),
             };
             *piece = (left, slope, c0);
             highest = highest.max(libm::fabsf(left));
+            left = right;
         }
         self.tiles = tiles;
         // As [`Background::residual_bounds`]: with room to spare (every value between two
