@@ -50,7 +50,10 @@ fn classified_row(
 }
 
 /// Classifies each column of `column_sums` (sums over `n_rows` rows) by its mean over the
-/// `2 half + 1` columns around it (clipped at the row's ends), into `classes`.
+/// `2 half + 1` columns around it (clipped at the row's ends), into `classes`: a running sum,
+/// each column added as it enters the box and taken off as it leaves, in that order. The
+/// columns whose box is whole have their own loop (no ends to test, the same divisor): the
+/// faint pass runs it on every pixel of the chip.
 fn box_across(
     column_sums: &[f32],
     half: usize,
@@ -60,22 +63,43 @@ fn box_across(
 ) {
     let width = column_sums.len().min(classes.len());
     let mut sum: f32 = column_sums.iter().take(half.min(width)).sum();
-    for x in 0..width {
+    // Column `x` with its box clipped by the row's ends.
+    let at_end = |x: usize, sum: &mut f32, classes: &mut [i8]| {
         if x + half < width
             && let Some(&entering) = column_sums.get(x + half)
         {
-            sum += entering;
+            *sum += entering;
         }
         let lo = x.saturating_sub(half);
         let hi = (x + half + 1).min(width);
         if let Some(c) = classes.get_mut(x) {
-            *c = classify(sum / (n_rows * (hi - lo) as f32));
+            *c = classify(*sum / (n_rows * (hi - lo) as f32));
         }
         if x >= half
             && let Some(&leaving) = column_sums.get(x - half)
         {
-            sum -= leaving;
+            *sum -= leaving;
         }
+    };
+    // The columns whose box is whole: `whole.start` at least `half`, `whole.end + half` at most
+    // `width`.
+    let whole = half.min(width)..width.saturating_sub(half).max(half.min(width));
+    for x in 0..whole.start {
+        at_end(x, &mut sum, classes);
+    }
+    let divisor = n_rows * (2 * half + 1) as f32;
+    let entering = column_sums.get(whole.start + half..).unwrap_or_default();
+    let leaving = (whole.start.checked_sub(half))
+        .and_then(|first| column_sums.get(first..))
+        .unwrap_or_default();
+    let inside = classes.get_mut(whole.clone()).unwrap_or_default();
+    for ((class, &entering), &leaving) in inside.iter_mut().zip(entering).zip(leaving) {
+        sum += entering;
+        *class = classify(sum / divisor);
+        sum -= leaving;
+    }
+    for x in whole.end..width {
+        at_end(x, &mut sum, classes);
     }
 }
 
@@ -875,6 +899,36 @@ mod tests {
         for (spans, expected) in spans.iter().zip(expected) {
             let read = spans.iter().map(|span| (span.start, span.end));
             assert!(read.eq(expected.iter().copied()), "{spans:?}");
+        }
+    }
+
+    /// The running box mean across a row classes each column as its clipped box's mean does,
+    /// computed afresh: integer column sums keep both exact, so the classes must agree, at the
+    /// row's ends, inside, and where the box is wider than the row.
+    #[test]
+    fn a_rows_running_box_mean_is_each_boxs_own() {
+        let sums: [f32; 40] = core::array::from_fn(|i| ((i * 37 + 11) % 23) as f32 - 11.0);
+        let classify = |m: f32| {
+            if m > 0.9 {
+                1
+            } else if m < -0.9 {
+                -1
+            } else {
+                0
+            }
+        };
+        for width in [0, 1, 2, 3, 4, 5, 7, 12, 40] {
+            for half in [1, 2, 3] {
+                let n_rows = 3.0;
+                let mut classes = [7i8; 40];
+                box_across(&sums[..width], half, n_rows, &mut classes[..width], &classify);
+                for x in 0..width {
+                    let (lo, hi) = (x.saturating_sub(half), (x + half + 1).min(width));
+                    let mean = sums[lo..hi].iter().sum::<f32>() / (n_rows * (hi - lo) as f32);
+                    assert_eq!(classes[x], classify(mean), "width {width} half {half} x {x}");
+                }
+                assert!(classes[width..].iter().all(|&c| c == 7), "nothing past the row");
+            }
         }
     }
 
