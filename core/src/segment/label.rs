@@ -921,13 +921,22 @@ mod tests {
             for half in [1, 2, 3] {
                 let n_rows = 3.0;
                 let mut classes = [7i8; 40];
-                box_across(&sums[..width], half, n_rows, &mut classes[..width], &classify);
+                box_across(
+                    &sums[..width],
+                    half,
+                    n_rows,
+                    &mut classes[..width],
+                    &classify,
+                );
                 for (x, &class) in classes[..width].iter().enumerate() {
                     let (lo, hi) = (x.saturating_sub(half), (x + half + 1).min(width));
                     let mean = sums[lo..hi].iter().sum::<f32>() / (n_rows * (hi - lo) as f32);
                     assert_eq!(class, classify(mean), "width {width} half {half} x {x}");
                 }
-                assert!(classes[width..].iter().all(|&c| c == 7), "nothing past the row");
+                assert!(
+                    classes[width..].iter().all(|&c| c == 7),
+                    "nothing past the row"
+                );
             }
         }
     }
