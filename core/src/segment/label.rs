@@ -462,7 +462,6 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
             // across the columns.
             let rows = y.saturating_sub(half).max(y_start)..(y + half + 1).min(y_end);
             let n_rows = rows.len().max(1) as f32;
-            boxed.fill(0.0);
             for r in rows.clone() {
                 let Some(residuals) = held.get_mut(slot_of(r)..slot_of(r) + width) else {
                     return Ok(());
@@ -470,8 +469,12 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
                 if !ring || r >= computed {
                     residuals_of_row(chip, background, r, x_start, residuals);
                 }
-                for (b, v) in boxed.iter_mut().zip(residuals.iter()) {
-                    *b += v;
+                // The first row is the sum from zero (a residual is never -0: `v - sky`).
+                let sums = boxed.iter_mut().zip(residuals.iter());
+                if r == rows.start {
+                    sums.for_each(|(b, v)| *b = *v);
+                } else {
+                    sums.for_each(|(b, v)| *b += v);
                 }
             }
             computed = rows.end;
