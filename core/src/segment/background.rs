@@ -493,13 +493,7 @@ impl Background {
             shape.outer,
             (x_start, end),
         );
-        for x in a..b {
-            if let (Some(level), Some(slot)) =
-                (corridor.at(x as f32, y as f32), out.get_mut(x - x_start))
-            {
-                *slot = level;
-            }
-        }
+        corridor.overlay_row(y, a..b, x_start, out);
     }
 
     /// Whether the background of `chip`'s rows is the tiles' alone, to be read a row at a time

@@ -191,22 +191,61 @@ impl Corridor {
     /// The sky at chip point (`x`, `y`), or None outside the corridor (beyond its ends, or more
     /// than `outer` px from the axis).
     pub fn at(&self, x: f32, y: f32) -> Option<f32> {
+        let (along, across) = self.shape.axis.local(x, y);
+        self.at_local(along, across, self.reading())
+    }
+
+    /// Writes the corridor's sky over `out`, which holds columns `x_start..` of row `y`, at the
+    /// columns `columns` where it has one: [`Corridor::at`] at each, bit for bit, with what is
+    /// the same for every point worked out once.
+    pub fn overlay_row(
+        &self,
+        y: usize,
+        columns: core::ops::Range<usize>,
+        x_start: usize,
+        out: &mut [f32],
+    ) {
+        let reading = self.reading();
+        let slots = columns.start.saturating_sub(x_start)..columns.end.saturating_sub(x_start);
+        let Some(slots) = out.get_mut(slots) else {
+            return;
+        };
+        let y = y as f32;
+        for (x, slot) in columns.zip(slots) {
+            let (along, across) = self.shape.axis.local(x as f32, y);
+            if let Some(level) = self.at_local(along, across, reading) {
+                *slot = level;
+            }
+        }
+    }
+
+    /// The last bin, and the flanks' middle distance from the axis, px.
+    fn reading(&self) -> (usize, f32) {
         let s = &self.shape;
-        let (along, across) = s.axis.local(x, y);
+        (self.bins.saturating_sub(1), 0.5 * (s.inner + s.outer))
+    }
+
+    /// [`Corridor::at`] at `along`, `across` px in the axis' frame, with `(last bin, mid)` from
+    /// [`Corridor::reading`].
+    #[inline]
+    fn at_local(&self, along: f32, across: f32, (last, mid): (usize, f32)) -> Option<f32> {
+        let s = &self.shape;
         if libm::fabsf(along) > s.half_length || libm::fabsf(across) > s.outer {
             return None;
         }
-        let position =
-            ((along + s.half_length) / s.bin_px - 0.5).clamp(0.0, (self.bins - 1) as f32);
+        let position = ((along + s.half_length) / s.bin_px - 0.5).clamp(0.0, last as f32);
         let i0 = position as usize;
-        let i1 = (i0 + 1).min(self.bins - 1);
+        let i1 = (i0 + 1).min(last);
         let w = position - i0 as f32;
-        let lerp = |side: &[f32; CORRIDOR_BINS]| {
-            let (a, b) = (side.get(i0).copied(), side.get(i1).copied());
-            a.zip(b).map(|(a, b)| a + w * (b - a))
+        let (Some(&m0), Some(&m1), Some(&p0), Some(&p1)) = (
+            self.minus.get(i0),
+            self.minus.get(i1),
+            self.plus.get(i0),
+            self.plus.get(i1),
+        ) else {
+            return None;
         };
-        let (minus, plus) = (lerp(&self.minus)?, lerp(&self.plus)?);
-        let mid = 0.5 * (s.inner + s.outer);
+        let (minus, plus) = (m0 + w * (m1 - m0), p0 + w * (p1 - p0));
         let u = ((across + mid) / (2.0 * mid)).clamp(0.0, 1.0);
         Some(minus + u * (plus - minus))
     }
@@ -383,17 +422,20 @@ mod tests {
         assert!(background.follow_corridor(&chip, &shape, 0.25 * 10.0));
         assert!(background.follows_corridor());
         assert!((background.at(63.5, 64.0) - 80.0).abs() < 1.0);
-        // The labeler's rows and the profiles' row reads see the same sky as single pixels do.
-        let mut row = [0.0f32; SIDE];
-        background.fill_row(64, 0, &mut row);
-        let read = background.row(64);
-        let mut filled = [0.0f32; SIDE];
-        read.fill(0, &mut filled);
-        for (x, (level, fill)) in row.iter().zip(filled).enumerate() {
-            let single = background.at(x as f32, 64.0);
-            assert!((level - single).abs() < 1e-3, "x {x}");
-            assert_eq!(read.at(x).to_bits(), single.to_bits(), "x {x}");
-            assert_eq!(fill.to_bits(), single.to_bits(), "x {x}");
+        // The labeler's rows and the profiles' row reads see the same sky as single pixels do,
+        // on the axis, across the flanks and beyond them.
+        for y in [57, 60, 62, 64, 66, 69, 72] {
+            let mut row = [0.0f32; SIDE];
+            background.fill_row(y, 0, &mut row);
+            let read = background.row(y);
+            let mut filled = [0.0f32; SIDE];
+            read.fill(0, &mut filled);
+            for (x, (level, fill)) in row.iter().zip(filled).enumerate() {
+                let single = background.at(x as f32, y as f32);
+                assert!((level - single).abs() < 1e-3, "({x}, {y})");
+                assert_eq!(read.at(x).to_bits(), single.to_bits(), "({x}, {y})");
+                assert_eq!(fill.to_bits(), single.to_bits(), "({x}, {y})");
+            }
         }
         assert_eq!(background.at(63.5, 10.0), tiles_far(&chip));
         // On a clean sky the tiles stay.
