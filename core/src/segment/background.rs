@@ -368,11 +368,10 @@ impl Background {
         scratch: &mut [f32],
         bounds: &mut [(f32, f32); MAX_TILES_PER_SIDE],
     ) -> bool {
-        let fits = chip.width() == self.width && chip.height() == self.height;
         let Some(row) = scratch.get_mut(..self.width) else {
             return false;
         };
-        if self.corridor.is_some() || !fits || ty >= self.tiles_y {
+        if !self.from_tiles(chip) || ty >= self.tiles_y {
             return false;
         }
         let (_, y0, _, y1) = self.tile_rect(0, ty);
