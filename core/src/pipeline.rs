@@ -489,10 +489,17 @@ impl<
             )
             .ok();
             // The shape prior at the frame's final pose: the fit's.
-            if let (Some(fitted), true) = (&measurement.fitted, config.table_match.shape_prior) {
+            let guided = config.table_match.guided.method.is_some();
+            if let (Some(fitted), true) = (
+                &measurement.fitted,
+                config.table_match.shape_prior || guided,
+            ) {
                 let placement = fitted.placement_in_chip(origin, self.model.diameter_m);
                 self.table_match
                     .redraw_prior(chip, &fitted.view, &placement);
+                #[cfg(feature = "shape-guided")]
+                self.table_match
+                    .segment_at_final_pose(chip, &config.table_match);
             }
         }
         Ok((target, measurement))

@@ -11,6 +11,7 @@
 use super::pose::{self, MatchInput, MatchedPose};
 use super::{GuidedLoopConfig, GuidedMethod, MatchConfig, TableMatch};
 use crate::camera::Camera;
+use crate::chip::ChipView;
 use crate::closed_form::{self, ClosedForm};
 use crate::extremes::{Axis, Silhouette};
 use crate::model::ProjectileModel;
@@ -97,6 +98,30 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
         outcome.rms_px = current.matched.rms_px;
         self.outcome = Some(outcome);
         current
+    }
+}
+
+impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
+    /// The segmentation at the frame's final pose: where the loop ran and the prior has been
+    /// drawn again at a pose refined after it (the grey-level fit's), the loop's method segments
+    /// the chip once more around that prior. The pose is not changed: the mask is the method's
+    /// answer to the best prior the frame has. Where the method fails, the prior is the mask.
+    pub fn segment_at_final_pose(&mut self, chip: &ChipView, config: &MatchConfig) {
+        let limits = &config.guided;
+        let (Some(method), Some(outcome)) = (limits.method, self.outcome.as_mut()) else {
+            return;
+        };
+        let segmentation = self.guided.segment(
+            method,
+            &limits.segmentation,
+            chip,
+            &self.prior,
+            &mut self.guided_mask,
+        );
+        match segmentation {
+            Ok(s) => outcome.last = Some(s),
+            Err(_) => self.guided_mask.clone_from(&self.prior),
+        }
     }
 }
 
