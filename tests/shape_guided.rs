@@ -531,19 +531,21 @@ struct LoopFrame {
     ious: [Option<f64>; 4],
 }
 
-/// The pipeline with the bundled table and `method` (no grey-level fit) over the Table 1 test
-/// clip.
-fn run_loop(method: Option<GuidedMethod>, range_use: RangeUse) -> Vec<LoopFrame> {
-    let clip = table1();
+/// The pipeline with the bundled table and `method` over `clip`, with the grey-level fit where
+/// `grey_fit`.
+fn run_loop(
+    clip: &Clip,
+    method: Option<GuidedMethod>,
+    range_use: RangeUse,
+    grey_fit: bool,
+) -> Vec<LoopFrame> {
     let camera = clip.meta.camera.camera();
-    // Without the grey-level fit, which runs after the loop and would measure its own pose
-    // (and costs about 130 ms a frame: 8 runs of 175 frames).
     let mut config = Config {
         range_use,
         ..Config::DEFAULT
     }
     .with_guided_method(method);
-    config.grey_fit.enabled = false;
+    config.grey_fit.enabled = grey_fit;
     let table = imade_tests::bundled_table();
     let mut pipeline: Box<Pipeline> =
         Box::new(Pipeline::new(config, camera, imade_tests::reference_model()).with_table(table));
@@ -602,13 +604,16 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// compared with the first match's (the run without refinement).
 #[test]
 fn refinement_loop_on_the_table1_test_clip() {
+    let clip = table1();
     for range_use in [RangeUse::Auto, RangeUse::Ignore] {
-        let none = run_loop(None, range_use);
+        // Without the grey-level fit, which runs after the loop and would measure its own pose
+        // (and costs about 130 ms a frame: 8 runs of 175 frames).
+        let none = run_loop(&clip, None, range_use, false);
         for method in [None].into_iter().chain(GuidedMethod::ALL.map(Some)) {
             let frames = if method.is_none() {
                 &none
             } else {
-                &run_loop(method, range_use)
+                &run_loop(&clip, method, range_use, false)
             };
             assert!(frames.len() >= 150, "{} frames with a pose", frames.len());
             let errors = |k: usize| median(frames.iter().map(|f| f.errors[k]).collect());
@@ -680,6 +685,40 @@ fn refinement_loop_on_the_table1_test_clip() {
                 assert!(errors(3) <= 0.5, "pitch {}", errors(3));
                 assert!(errors(4) <= 4.0, "yaw chosen {}", errors(4));
             }
+        }
+    }
+}
+
+/// With the grey-level fit, each method segments the chip once more around the prior drawn at
+/// the fit's pose: on `fixtures/small-known-range` (20 frames, range known) every frame with a
+/// pose has a refined mask, and its median IoU against the truth masks beats both the blind
+/// mask's and the refined mask the loop alone gives (without the fit, from the first match's
+/// prior). Measured: blind 0.955; refined without the fit / with it: SIS-Cut 0.887 / 0.943,
+/// GVF-ASM 0.971 / 0.984, TETRIS 0.956 / 0.984. SIS-Cut's stays below the blind mask's.
+#[test]
+fn each_method_segments_again_at_the_grey_level_fits_pose() {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/small-known-range");
+    let clip = Clip::open(&dir).expect("fixture clip");
+    for method in GuidedMethod::ALL {
+        let [loop_only, fitted] =
+            [false, true].map(|grey_fit| run_loop(&clip, Some(method), RangeUse::Auto, grey_fit));
+        assert_eq!(fitted.len(), clip.frames.len(), "a pose in every frame");
+        assert!(fitted.iter().all(|f| f.ious[2].is_some()), "a refined mask");
+        let median_of = |frames: &[LoopFrame], k: usize| {
+            median(frames.iter().filter_map(|f| f.ious[k]).collect())
+        };
+        let (blind, before, after) = (
+            median_of(&fitted, 0),
+            median_of(&loop_only, 2),
+            median_of(&fitted, 2),
+        );
+        println!(
+            "{}: IoU blind {blind:.3}, refined without the fit {before:.3}, with it {after:.3}",
+            method.as_str()
+        );
+        assert!(after > before + 0.01, "{}", method.as_str());
+        if method != GuidedMethod::SisCut {
+            assert!(after >= 0.95 && after > blind, "{}", method.as_str());
         }
     }
 }

@@ -295,8 +295,9 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
         self.matched.as_ref()
     }
 
-    /// The shape-guided segmentation of the last frame's last round (the prior it started from
-    /// where the method failed), chip-sized; empty where the loop did not run.
+    /// The shape-guided segmentation of the last frame, chip-sized: around the prior at the
+    /// grey-level fit's pose where the fit ran, else the loop's last round (the prior it started
+    /// from where the method failed); empty where the loop did not run.
     #[cfg(feature = "shape-guided")]
     pub fn guided_mask(&self) -> &BitMask<MASK_WORDS> {
         &self.guided_mask
