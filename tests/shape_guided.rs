@@ -694,7 +694,7 @@ fn refinement_loop_on_the_table1_test_clip() {
 /// pose has a refined mask, and its median IoU against the truth masks beats both the blind
 /// mask's and the refined mask the loop alone gives (without the fit, from the first match's
 /// prior). Measured: blind 0.955; refined without the fit / with it: SIS-Cut 0.887 / 0.943,
-/// GVF-ASM 0.971 / 0.984, TETRIS 0.956 / 0.984. SIS-Cut's stays below the blind mask's.
+/// GVF-ASM 0.971 / 0.984, TETRIS 0.967 / 0.984. SIS-Cut's stays below the blind mask's.
 #[test]
 fn each_method_segments_again_at_the_grey_level_fits_pose() {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/small-known-range");

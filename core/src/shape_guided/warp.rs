@@ -46,15 +46,26 @@ pub fn warp_prior<const W: usize>(
     let mut count = 0;
     for y in cy0..=cy1.min(h.saturating_sub(1)) {
         for x in cx0..=cx1 {
-            let q = inverse.apply(Vector2::new(x as f32, y as f32));
-            let (qx, qy) = (libm::roundf(q.x), libm::roundf(q.y));
-            if qx >= 0.0 && qy >= 0.0 && prior.get(qx as usize, qy as usize) {
+            if warped_at(prior, &inverse, x, y) {
                 out.set(x, y, true);
                 count += 1;
             }
         }
     }
     Ok(count)
+}
+
+/// Whether the warped prior holds chip pixel `(x, y)`: the prior's pixel nearest to its
+/// pre-image under the warp (`inverse` maps the warped prior's px to the prior's).
+pub fn warped_at<const W: usize>(
+    prior: &BitMask<W>,
+    inverse: &Affine2,
+    x: usize,
+    y: usize,
+) -> bool {
+    let q = inverse.apply(Vector2::new(x as f32, y as f32));
+    let (qx, qy) = (libm::roundf(q.x), libm::roundf(q.y));
+    qx >= 0.0 && qy >= 0.0 && prior.get(qx as usize, qy as usize)
 }
 
 #[cfg(test)]

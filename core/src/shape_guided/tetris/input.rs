@@ -126,34 +126,81 @@ impl CropFrame {
     /// The chip at every sample, normalized by the prior's contrast (the module's doc), into
     /// the plane `grey`; `cover` is the prior's plane.
     fn sample_chip(&self, chip: &ChipView, cover: &[f32], grey: &mut [f32]) {
-        let (mut on, mut on_sum) = (0.0f32, 0.0f32);
-        let (mut off, mut off_sum, mut off_squares) = (0.0f32, 0.0f32, 0.0f32);
+        let mut levels = LevelSums::default();
         for (k, (value, &c)) in grey.iter_mut().zip(cover).enumerate() {
             let p = self.sample_px(k / INPUT_COLUMNS, k % INPUT_COLUMNS);
             let level = bilinear(p, chip.width(), chip.height(), |x, y| {
                 f32::from(chip.get(x, y))
             });
             *value = level;
-            if c >= 0.5 {
-                on += 1.0;
-                on_sum += level;
-            } else {
-                off += 1.0;
-                off_sum += level;
-                off_squares += level * level;
-            }
+            levels.add(level, c >= 0.5);
         }
-        let sky = if off > 0.0 { off_sum / off } else { 0.0 };
-        let sky_sd = if off > 1.0 {
-            libm::sqrtf(((off_squares - off_sum * sky) / (off - 1.0)).max(0.0))
+        let scale = levels.scale();
+        for g in grey.iter_mut() {
+            *g = scale.normalized(*g);
+        }
+    }
+}
+
+/// Sums of the grey levels on and off the prior, from which the chip is normalized.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct LevelSums {
+    on: f32,
+    on_sum: f32,
+    off: f32,
+    off_sum: f32,
+    off_squares: f32,
+}
+
+impl LevelSums {
+    /// Adds `level`, on the prior or off it.
+    pub fn add(&mut self, level: f32, on_prior: bool) {
+        if on_prior {
+            self.on += 1.0;
+            self.on_sum += level;
+        } else {
+            self.off += 1.0;
+            self.off_sum += level;
+            self.off_squares += level * level;
+        }
+    }
+
+    /// The normalization (the module's doc): the sky the mean off the prior, the scale the
+    /// contrast under it, at least the sky's standard deviation and one grey level.
+    pub fn scale(&self) -> GreyScale {
+        let sky = if self.off > 0.0 {
+            self.off_sum / self.off
         } else {
             0.0
         };
-        let contrast = if on > 0.0 { on_sum / on - sky } else { 0.0 };
-        let scale = libm::copysignf(contrast.abs().max(sky_sd).max(1.0), contrast);
-        for g in grey.iter_mut() {
-            *g = ((*g - sky) / scale).clamp(-CLAMP, CLAMP);
+        let sky_sd = if self.off > 1.0 {
+            libm::sqrtf(((self.off_squares - self.off_sum * sky) / (self.off - 1.0)).max(0.0))
+        } else {
+            0.0
+        };
+        let contrast = if self.on > 0.0 {
+            self.on_sum / self.on - sky
+        } else {
+            0.0
+        };
+        GreyScale {
+            sky,
+            scale: libm::copysignf(contrast.abs().max(sky_sd).max(1.0), contrast),
         }
+    }
+}
+
+/// A grey level to the normalized one: the sky 0, the body about +1.
+#[derive(Debug, Clone, Copy)]
+pub struct GreyScale {
+    sky: f32,
+    scale: f32,
+}
+
+impl GreyScale {
+    /// `level` normalized, clamped to `[-CLAMP, CLAMP]`.
+    pub fn normalized(&self, level: f32) -> f32 {
+        ((level - self.sky) / self.scale).clamp(-CLAMP, CLAMP)
     }
 }
 

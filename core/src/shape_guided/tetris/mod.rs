@@ -20,6 +20,7 @@
 //! body a tenth of its IoU. Where configured ([`TetrisConfig::passes`]), a kept warp is followed
 //! by another pass around the moved prior, which sees the body centred and refines the warp.
 
+pub mod check;
 pub mod input;
 pub mod network;
 pub mod weights;
@@ -31,11 +32,11 @@ use super::affine::Affine2;
 use super::prior::PriorShape;
 use crate::chip::ChipView;
 use crate::mask::BitMask;
-use crate::math::bilinear_blend;
+use check::PixelCheck;
 use core::cmp::Ordering;
 use input::CropFrame;
 use nalgebra::{Matrix2, Vector2};
-use network::{INPUT_COLUMNS, INPUT_ROWS, Network, OUTPUTS};
+use network::{Network, OUTPUTS};
 
 /// The network's warp in the crop frame: the prior at crop point `q = linear p + offset` is the
 /// segmentation at `p`.
@@ -90,21 +91,13 @@ impl Default for TetrisConfig {
 pub struct TetrisResult {
     /// Chip px to chip px: the segmentation is the prior moved by it.
     pub transform: Affine2,
-    /// Mean squared difference between the normalized chip and the prior over the first pass's
-    /// crop ...
+    /// Mean squared difference between the normalized chip pixels in the first pass's crop and
+    /// the prior ([`check`]) ...
     pub residual_before: f32,
-    /// ... and between the chip and the prior as the last pass kept it, over that pass's crop.
+    /// ... and the prior as the last pass kept it.
     pub residual_after: f32,
     /// Passes whose warp was kept (0: the prior stands, the transform is the identity).
     pub passes_kept: u8,
-}
-
-/// One pass: the warp and whether it fits the chip better.
-struct Pass {
-    /// Chip px to chip px: the moved prior at chip x is the pass's input prior at `pull(x)`.
-    pull: Affine2,
-    residual_before: f32,
-    residual_after: f32,
 }
 
 /// The network's buffers (40 KiB).
@@ -122,8 +115,8 @@ impl Tetris {
     }
 
     /// Warps `prior` (measured as `shape`) onto the body in `chip` with the network `weights`,
-    /// in up to `config.passes` passes; a pass whose warp does not fit the chip better than its
-    /// input ends the segmentation.
+    /// in up to `config.passes` passes; a pass whose warp does not fit the chip's pixels better
+    /// than its input ([`check`]) ends the segmentation.
     pub fn run<const W: usize>(
         &mut self,
         chip: &ChipView,
@@ -132,10 +125,14 @@ impl Tetris {
         weights: &TetrisWeights,
         config: &TetrisConfig,
     ) -> Result<TetrisResult, ShapeGuidedError> {
+        let check = PixelCheck::new(chip, prior, CropFrame::around(shape, weights));
+        let before = check
+            .residual(&Affine2::IDENTITY)
+            .ok_or(ShapeGuidedError::Degenerate)?;
         let mut result = TetrisResult {
             transform: Affine2::IDENTITY,
-            residual_before: 0.0,
-            residual_after: 0.0,
+            residual_before: before,
+            residual_after: before,
             passes_kept: 0,
         };
         for pass in 0..config.passes() {
@@ -150,99 +147,44 @@ impl Tetris {
                 .transform
                 .inverse()
                 .ok_or(ShapeGuidedError::Degenerate)?;
-            let step = self.pass(chip, prior, &moved, &pull, weights)?;
-            if pass == 0 {
-                result.residual_before = step.residual_before;
-                result.residual_after = step.residual_before;
-            }
-            // A NaN residual (not reachable: the input is clamped, the weights finite) stops.
-            if step.residual_after.partial_cmp(&step.residual_before) != Some(Ordering::Less) {
-                break;
-            }
-            // The new segmentation at x is the old one at pull(x): the prior moves by its inverse.
-            let push = step.pull.inverse().ok_or(ShapeGuidedError::Degenerate)?;
-            result.transform = result.transform.then(&push);
-            if !result.transform.is_finite() {
+            let step = self.pull(chip, prior, &moved, &pull, weights)?;
+            // The new segmentation at x is the old one at step(x): the prior moves by its inverse.
+            let push = step.inverse().ok_or(ShapeGuidedError::Degenerate)?;
+            let transform = result.transform.then(&push);
+            if !transform.is_finite() {
                 return Err(ShapeGuidedError::Degenerate);
             }
-            result.residual_after = step.residual_after;
+            let residual = check
+                .residual(&transform)
+                .ok_or(ShapeGuidedError::Degenerate)?;
+            // A NaN residual (not reachable: the levels are finite) stops.
+            if residual.partial_cmp(&result.residual_after) != Some(Ordering::Less) {
+                break;
+            }
+            result.transform = transform;
+            result.residual_after = residual;
             result.passes_kept += 1;
         }
         Ok(result)
     }
 
-    /// One pass on the prior moved by the inverse of `pull` (whose shape is `moved`).
-    fn pass<const W: usize>(
+    /// One pass on the prior moved by the inverse of `pull` (whose shape is `moved`): the
+    /// network's warp as a chip px map, the moved prior at chip x being the pass's input prior
+    /// at the map's image of x.
+    fn pull<const W: usize>(
         &mut self,
         chip: &ChipView,
         prior: &BitMask<W>,
         moved: &PriorShape,
         pull: &Affine2,
         weights: &TetrisWeights,
-    ) -> Result<Pass, ShapeGuidedError> {
+    ) -> Result<Affine2, ShapeGuidedError> {
         let frame = CropFrame::around(moved, weights);
         frame.fill(chip, prior, pull, self.network.input_mut());
         let warp = Warp::of_outputs(&self.network.run(weights));
-        let input = self.network.input();
-        let (grey, cover) = input.split_at(input::PLANE);
-        let residual_before = mean_squared(grey, cover.iter().copied());
-        let warped = (0..input::PLANE).map(|k| {
-            let q = warp.linear * input::sample_point(k / INPUT_COLUMNS, k % INPUT_COLUMNS);
-            crop_bilinear(cover, q + warp.offset)
-        });
-        let residual_after = mean_squared(grey, warped);
-        let pull = frame
+        frame
             .chip_map(warp.linear, warp.offset)
             .filter(Affine2::is_finite)
-            .ok_or(ShapeGuidedError::Degenerate)?;
-        Ok(Pass {
-            pull,
-            residual_before,
-            residual_after,
-        })
+            .ok_or(ShapeGuidedError::Degenerate)
     }
-}
-
-/// The mean over the crop of `(grey[k] - mask[k])²`.
-fn mean_squared(grey: &[f32], mask: impl Iterator<Item = f32>) -> f32 {
-    let sum: f32 = grey
-        .iter()
-        .zip(mask)
-        .map(|(g, m)| {
-            let d = g - m;
-            d * d
-        })
-        .sum();
-    sum / grey.len().max(1) as f32
-}
-
-/// A crop plane's bilinear value at crop-normalized point `q`, 0 outside the crop.
-pub fn crop_bilinear(plane: &[f32], q: Vector2<f32>) -> f32 {
-    // Sample (row j, column i) lies at s = (i + 0.5) / 32 - 1: i = (s + 1) 32 - 0.5.
-    let x = (q.x + 1.0) * (0.5 * INPUT_COLUMNS as f32) - 0.5;
-    let y = (q.y + 1.0) * (0.5 * INPUT_ROWS as f32) - 0.5;
-    if !(x.is_finite() && y.is_finite()) {
-        return 0.0;
-    }
-    let (fx0, fy0) = (libm::floorf(x), libm::floorf(y));
-    let (fx, fy) = (x - fx0, y - fy0);
-    let at = |column: f32, row: f32| {
-        let inside = (0.0..INPUT_COLUMNS as f32).contains(&column)
-            && (0.0..INPUT_ROWS as f32).contains(&row);
-        if inside {
-            plane
-                .get(row as usize * INPUT_COLUMNS + column as usize)
-                .copied()
-                .unwrap_or(0.0)
-        } else {
-            0.0
-        }
-    };
-    let corners = [
-        at(fx0, fy0),
-        at(fx0 + 1.0, fy0),
-        at(fx0, fy0 + 1.0),
-        at(fx0 + 1.0, fy0 + 1.0),
-    ];
-    bilinear_blend(corners, fx, fy)
 }

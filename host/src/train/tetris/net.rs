@@ -126,8 +126,8 @@ impl Grid {
     }
 
     /// The prior planes `(B, PLANE)` warped by `warp` `(B, 6)`: each sample takes the prior at
-    /// `q = (I + [[a, b], [c, d]]) p + (e, f)`, bilinear, 0 off the crop (the core's
-    /// `crop_bilinear`). Differentiable in `warp`.
+    /// `q = (I + [[a, b], [c, d]]) p + (e, f)`, bilinear, 0 off the crop (the warp of the core's
+    /// `shape_guided::tetris` module doc). Differentiable in `warp`.
     pub fn warp(&self, prior: &Tensor, warp: &Tensor) -> candle_core::Result<Tensor> {
         let o = |k: usize| warp.narrow(1, k, 1);
         let qs = self
