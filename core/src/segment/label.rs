@@ -147,7 +147,7 @@ fn classed_spans(
 /// Columns of a row bounded at a time by [`busy_spans`]: over so few the sky varies little and
 /// the noise's extremes stay near its deviation, so the bounds are tight; aligned to multiples
 /// of it, a group never straddles two tiles.
-const SCREEN_PX: usize = 16;
+const SCREEN_PX: usize = 32;
 
 // A group lies in one tile.
 const _: () = assert!(BACKGROUND_TILE % SCREEN_PX == 0);
@@ -882,7 +882,11 @@ mod tests {
         // Within the read tiles, the screen: on a row of the dark bar (columns 20 to 89) only
         // the groups the bar lies in are labeled, on a row of sky alone none.
         let mut levels = RowLevels::new();
-        for (y, expected) in [(62, &[(16, 96)][..]), (20, &[][..])] {
+        let bar = (
+            20 / SCREEN_PX * SCREEN_PX,
+            90usize.div_ceil(SCREEN_PX) * SCREEN_PX,
+        );
+        for (y, expected) in [(62, &[bar][..]), (20, &[][..])] {
             levels.set(&bg, y);
             let mut spans = heapless::Vec::<(usize, usize), 8>::new();
             let mut push = |s: core::ops::Range<usize>| spans.push((s.start, s.end));
