@@ -3,7 +3,9 @@
 //!
 //! Each chip pixel whose centre lies in the crop is normalized as the network's input is (the
 //! sky 0, the body about +1, by the prior's contrast: [`LevelSums`]), and a mask's residual is
-//! the mean of `(grey - bit)²` over them. Judged on the crop's resampled planes instead, a warp
+//! the sum of `(grey - bit)²` over them. The warp must lower it by more than the sky's noise
+//! explains over the pixels it changes ([`Comparison::candidate_is_better`]): where the body is
+//! as faint as the noise, a warp that fits the noise is not kept. Judged on the crop's resampled planes instead, a warp
 //! that shrinks a right prior around a blurred, shaded body read lower and was kept.
 
 use super::input::{CropFrame, GreyScale, LevelSums};
@@ -12,6 +14,45 @@ use crate::mask::BitMask;
 use crate::shape_guided::affine::Affine2;
 use crate::shape_guided::warp::warped_at;
 use nalgebra::Vector2;
+
+/// Sums of `(grey - bit)²` over the crop's pixels for the mask a pass starts from and the one
+/// it proposes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Comparison {
+    /// Sum for the current mask.
+    pub current: f32,
+    /// Sum for the proposed one.
+    pub candidate: f32,
+    /// Pixels in the crop.
+    pub pixels: u32,
+    /// Pixels whose bit differs between the two.
+    pub changed: u32,
+    /// The normalized sky's standard deviation.
+    pub sky_sd: f32,
+}
+
+impl Comparison {
+    /// Mean squared difference of the current mask.
+    pub fn current_mean(&self) -> f32 {
+        self.current / self.pixels.max(1) as f32
+    }
+
+    /// Mean squared difference of the proposed mask.
+    pub fn candidate_mean(&self) -> f32 {
+        self.candidate / self.pixels.max(1) as f32
+    }
+
+    /// Whether the proposed mask fits better by more than noise explains: each changed pixel
+    /// moves the sum by `±(1 - 2 grey)`, whose noise has deviation `2 sky_sd`, so the gain must
+    /// pass [`SIGNIFICANCE`] times `2 sky_sd sqrt(changed)`. NaN sums never pass.
+    pub fn candidate_is_better(&self) -> bool {
+        let noise = 2.0 * self.sky_sd * libm::sqrtf(self.changed as f32);
+        self.current - self.candidate > SIGNIFICANCE * noise
+    }
+}
+
+/// How many noise deviations a warp's gain must reach.
+pub const SIGNIFICANCE: f32 = 2.0;
 
 /// The crop's chip pixels, normalized by the prior.
 pub struct PixelCheck<'a, const W: usize> {
@@ -52,22 +93,31 @@ impl<'a, const W: usize> PixelCheck<'a, W> {
         check
     }
 
-    /// The mean squared difference between the normalized pixels and the prior warped by
-    /// `transform` (chip px to chip px; None where it cannot be inverted).
-    pub fn residual(&self, transform: &Affine2) -> Option<f32> {
-        let inverse = transform.inverse()?;
-        let (mut sum, mut count) = (0.0f32, 0.0f32);
+    /// The prior warped by `current` against it warped by `candidate` (chip px to chip px;
+    /// None where either cannot be inverted).
+    pub fn compare(&self, current: &Affine2, candidate: &Affine2) -> Option<Comparison> {
+        let (current, candidate) = (current.inverse()?, candidate.inverse()?);
+        let mut sums = Comparison {
+            current: 0.0,
+            candidate: 0.0,
+            pixels: 0,
+            changed: 0,
+            sky_sd: self.scale.sky_sd,
+        };
+        let bit = |on: bool| if on { 1.0 } else { 0.0 };
         self.for_each_pixel(|x, y, level| {
-            let bit = if warped_at(self.prior, &inverse, x, y) {
-                1.0
-            } else {
-                0.0
-            };
-            let d = self.scale.normalized(level) - bit;
-            sum += d * d;
-            count += 1.0;
+            let grey = self.scale.normalized(level);
+            let (was, is) = (
+                warped_at(self.prior, &current, x, y),
+                warped_at(self.prior, &candidate, x, y),
+            );
+            let (d_was, d_is) = (grey - bit(was), grey - bit(is));
+            sums.current += d_was * d_was;
+            sums.candidate += d_is * d_is;
+            sums.pixels += 1;
+            sums.changed += u32::from(was != is);
         });
-        Some(sum / count.max(1.0))
+        Some(sums)
     }
 
     /// Calls `visit(x, y, grey level)` for every chip pixel whose centre is in the crop.
@@ -138,12 +188,17 @@ mod tests {
         let chip = ChipView::gray8(&data, W, H, W, 0, 0).unwrap();
         let prior = bar_mask((30, 33));
         let check = check(&chip, &prior);
-        assert_eq!(check.residual(&Affine2::IDENTITY), Some(0.0));
-        // One row off: 2 x 40 pixels wrong by 1; two rows: 4 x 40.
-        let one = check.residual(&shift(1.0)).unwrap();
-        let two = check.residual(&shift(2.0)).unwrap();
-        assert!(one > 0.0);
-        assert!((two / one - 2.0).abs() < 1e-5, "{one} {two}");
+        // One row off: 2 x 40 pixels changed, each wrong by 1; two rows: 4 x 40.
+        let one = check.compare(&Affine2::IDENTITY, &shift(1.0)).unwrap();
+        let two = check.compare(&Affine2::IDENTITY, &shift(2.0)).unwrap();
+        assert_eq!((one.current, one.candidate, one.changed), (0.0, 80.0, 80));
+        assert_eq!((two.candidate, two.changed), (160.0, 160));
+        assert_eq!(one.sky_sd, 0.0, "a flat sky");
+        assert!(!one.candidate_is_better());
+        // Back from one row off: better by 80 against no noise.
+        let back = check.compare(&shift(1.0), &Affine2::IDENTITY).unwrap();
+        assert_eq!((back.current, back.candidate), (80.0, 0.0));
+        assert!(back.candidate_is_better());
     }
 
     #[test]
@@ -152,19 +207,40 @@ mod tests {
         let chip = ChipView::gray8(&data, W, H, W, 0, 0).unwrap();
         let prior = bar_mask((30, 33));
         let check = check(&chip, &prior);
-        let right = check.residual(&Affine2::IDENTITY).unwrap();
-        let thinner = Affine2::about(
-            Vector2::new(40.0, 31.5),
-            Matrix2::new(1.0, 0.0, 0.0, 0.75),
-            Vector2::zeros(),
-        );
-        let wider = Affine2::about(
-            Vector2::new(40.0, 31.5),
-            Matrix2::new(1.0, 0.0, 0.0, 1.5),
-            Vector2::zeros(),
-        );
-        for other in [thinner, wider, shift(1.0)] {
-            assert!(right < check.residual(&other).unwrap(), "{other:?}");
+        let about = |scale: f32| {
+            Affine2::about(
+                Vector2::new(40.0, 31.5),
+                Matrix2::new(1.0, 0.0, 0.0, scale),
+                Vector2::zeros(),
+            )
+        };
+        for other in [about(0.75), about(1.5), shift(1.0)] {
+            let c = check.compare(&Affine2::IDENTITY, &other).unwrap();
+            assert!(c.current < c.candidate, "{other:?}: {c:?}");
+            assert!(!c.candidate_is_better());
         }
+    }
+
+    /// The gain a warp needs grows with the sky's noise and the pixels it changes: a gain of 10
+    /// over 25 changed pixels passes against a normalized noise of 0.4 (2 x 2 x 0.4 x 5 = 8) and
+    /// not against 0.6 (12).
+    #[test]
+    fn a_gain_must_pass_the_noise_over_the_changed_pixels() {
+        let at = |sky_sd: f32| Comparison {
+            current: 30.0,
+            candidate: 20.0,
+            pixels: 1000,
+            changed: 25,
+            sky_sd,
+        };
+        assert!(at(0.4).candidate_is_better());
+        assert!(!at(0.6).candidate_is_better());
+        assert!(
+            !Comparison {
+                candidate: f32::NAN,
+                ..at(0.0)
+            }
+            .candidate_is_better()
+        );
     }
 }

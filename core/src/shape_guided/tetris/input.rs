@@ -183,9 +183,11 @@ impl LevelSums {
         } else {
             0.0
         };
+        let scale = contrast.abs().max(sky_sd).max(1.0);
         GreyScale {
             sky,
-            scale: libm::copysignf(contrast.abs().max(sky_sd).max(1.0), contrast),
+            scale: libm::copysignf(scale, contrast),
+            sky_sd: sky_sd / scale,
         }
     }
 }
@@ -195,6 +197,8 @@ impl LevelSums {
 pub struct GreyScale {
     sky: f32,
     scale: f32,
+    /// The standard deviation of the levels off the prior, normalized (at most 1).
+    pub sky_sd: f32,
 }
 
 impl GreyScale {

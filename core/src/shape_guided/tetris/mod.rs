@@ -33,7 +33,6 @@ use super::prior::PriorShape;
 use crate::chip::ChipView;
 use crate::mask::BitMask;
 use check::PixelCheck;
-use core::cmp::Ordering;
 use input::CropFrame;
 use nalgebra::{Matrix2, Vector2};
 use network::{Network, OUTPUTS};
@@ -115,8 +114,8 @@ impl Tetris {
     }
 
     /// Warps `prior` (measured as `shape`) onto the body in `chip` with the network `weights`,
-    /// in up to `config.passes` passes; a pass whose warp does not fit the chip's pixels better
-    /// than its input ([`check`]) ends the segmentation.
+    /// in up to `config.passes` passes; a pass whose warp does not fit the chip's pixels
+    /// significantly better than its input ([`check`]) ends the segmentation.
     pub fn run<const W: usize>(
         &mut self,
         chip: &ChipView,
@@ -126,13 +125,10 @@ impl Tetris {
         config: &TetrisConfig,
     ) -> Result<TetrisResult, ShapeGuidedError> {
         let check = PixelCheck::new(chip, prior, CropFrame::around(shape, weights));
-        let before = check
-            .residual(&Affine2::IDENTITY)
-            .ok_or(ShapeGuidedError::Degenerate)?;
         let mut result = TetrisResult {
             transform: Affine2::IDENTITY,
-            residual_before: before,
-            residual_after: before,
+            residual_before: f32::NAN,
+            residual_after: f32::NAN,
             passes_kept: 0,
         };
         for pass in 0..config.passes() {
@@ -154,15 +150,18 @@ impl Tetris {
             if !transform.is_finite() {
                 return Err(ShapeGuidedError::Degenerate);
             }
-            let residual = check
-                .residual(&transform)
+            let comparison = check
+                .compare(&result.transform, &transform)
                 .ok_or(ShapeGuidedError::Degenerate)?;
-            // A NaN residual (not reachable: the levels are finite) stops.
-            if residual.partial_cmp(&result.residual_after) != Some(Ordering::Less) {
+            if pass == 0 {
+                result.residual_before = comparison.current_mean();
+                result.residual_after = result.residual_before;
+            }
+            if !comparison.candidate_is_better() {
                 break;
             }
             result.transform = transform;
-            result.residual_after = residual;
+            result.residual_after = comparison.candidate_mean();
             result.passes_kept += 1;
         }
         Ok(result)
