@@ -888,14 +888,15 @@ fn tile_median(
     let (x0, y0, x1, y1) = rect;
     let shift = if chip.is_16bit() { 8 } else { 0 };
     let mut coarse = [0u32; 256];
+    let mut total = 0u32;
     for y in y0..y1 {
         chip.for_each_in_span(y, x0, x1, |x, v| {
             if keep(x, y) {
                 coarse[usize::from((v >> shift) as u8)] += 1;
+                total += 1;
             }
         });
     }
-    let total: u32 = coarse.iter().sum();
     if total == 0 {
         return TileMedian {
             level: 0.0,
@@ -907,7 +908,7 @@ fn tile_median(
     let highest = coarse.iter().rposition(|&c| c > 0).unwrap_or(255) as u16;
     let range = (lowest << shift, (highest << shift) | ((1u16 << shift) - 1));
     let half = total as f32 * 0.5;
-    let (bin, below) = median_bin(&coarse, half);
+    let (bin, below) = median_bin(&coarse, usize::from(lowest), half);
     let pixels = total as usize;
     if shift == 0 {
         let level = interpolated(bin, below, &coarse, half, 1.0);
@@ -926,7 +927,7 @@ fn tile_median(
             }
         });
     }
-    let (fine_bin, fine_below) = median_bin(&fine, half - below as f32);
+    let (fine_bin, fine_below) = median_bin(&fine, 0, half - below as f32);
     let level =
         (bin as f32) * 256.0 + interpolated(fine_bin, fine_below, &fine, half - below as f32, 1.0);
     TileMedian {
@@ -936,10 +937,11 @@ fn tile_median(
     }
 }
 
-/// The bin where the cumulative count reaches `half`, and the count below it.
-fn median_bin(hist: &[u32; 256], half: f32) -> (usize, u32) {
+/// The bin where the cumulative count reaches `half`, and the count below it; the bins below
+/// `first` are empty.
+fn median_bin(hist: &[u32; 256], first: usize, half: f32) -> (usize, u32) {
     let mut below = 0u32;
-    for (i, &c) in hist.iter().enumerate() {
+    for (i, &c) in hist.iter().enumerate().skip(first) {
         if (below + c) as f32 >= half {
             return (i, below);
         }
@@ -957,6 +959,35 @@ fn interpolated(bin: usize, below: u32, hist: &[u32; 256], half: f32, width: f32
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A 4 x 4 tile worked out by hand: levels 10 (4 px), 20 (6), 30 (2), 40 (3) and 250 (1).
+    /// Half of 16 is reached in the bin of 20 with 4 below: 20 - 0.5 + (8 - 4) / 6. Without the
+    /// 10s and the 250 (11 px), half of 11 is reached there with none below: 19.5 + 5.5 / 6.
+    #[test]
+    fn a_tiles_median_is_interpolated_in_its_bin() {
+        let data: [u8; 16] = [
+            10, 20, 10, 250, 20, 10, 20, 30, 40, 20, 10, 40, 30, 20, 40, 20,
+        ];
+        let chip = ChipView::gray8(&data, 4, 4, 4, 0, 0).unwrap();
+        let all = tile_median(&chip, (0, 0, 4, 4), |_, _| true);
+        assert_eq!((all.pixels, all.range), (16, (10, 250)));
+        assert!(
+            (all.level - (19.5 + 4.0 / 6.0)).abs() < 1e-5,
+            "{}",
+            all.level
+        );
+        let kept = tile_median(&chip, (0, 0, 4, 4), |x, y| {
+            !matches!(data[y * 4 + x], 10 | 250)
+        });
+        assert_eq!((kept.pixels, kept.range), (11, (20, 40)));
+        assert!(
+            (kept.level - (19.5 + 5.5 / 6.0)).abs() < 1e-5,
+            "{}",
+            kept.level
+        );
+        let none = tile_median(&chip, (0, 0, 4, 4), |_, _| false);
+        assert_eq!((none.pixels, none.range), (0, (0, u16::MAX)));
+    }
 
     #[test]
     fn follows_a_gradient_and_ignores_a_small_target() {
