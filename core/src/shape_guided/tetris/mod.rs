@@ -12,13 +12,13 @@
 //! `(a, b, c, d, e, f)` give the crop-normalized map `q = (I + [[a, b], [c, d]]) p + (e, f)`,
 //! and the warped prior at crop point `p` is the prior at `q`. Zero outputs are the identity.
 //!
-//! The warp is kept only where it fits the chip better than the prior: the mean squared
-//! difference between the normalized chip (the body about 1, the sky 0) and the warped prior
-//! over the crop must be below the prior's own (the training loss, with the chip in place of
-//! the true mask). Else the prior stands (the identity): a network trained on priors from far
-//! off to nearly right still moves a right prior by a fraction of a pixel, which costs a thin
-//! body a tenth of its IoU. Where configured ([`TetrisConfig::passes`]), a kept warp is followed
-//! by another pass around the moved prior, which sees the body centred and refines the warp.
+//! The warp is kept only where it fits the chip better than the prior by more than the sky's
+//! noise explains ([`check`]: the chip's own pixels in the crop, normalized as the network's
+//! input, against the prior and the warped prior as the segmentation draws them). Else the prior
+//! stands (the identity): a network trained on priors from far off to nearly right still moves a
+//! right prior by a fraction of a pixel, which costs a thin body a tenth of its IoU. Where
+//! configured ([`TetrisConfig::passes`]), a kept warp is followed by another pass around the
+//! moved prior, which sees the body centred and refines the warp.
 
 pub mod check;
 pub mod input;
@@ -143,7 +143,7 @@ impl Tetris {
                 .transform
                 .inverse()
                 .ok_or(ShapeGuidedError::Degenerate)?;
-            let step = self.pull(chip, prior, &moved, &pull, weights)?;
+            let step = self.pass(chip, prior, &moved, &pull, weights)?;
             // The new segmentation at x is the old one at step(x): the prior moves by its inverse.
             let push = step.inverse().ok_or(ShapeGuidedError::Degenerate)?;
             let transform = result.transform.then(&push);
@@ -167,10 +167,10 @@ impl Tetris {
         Ok(result)
     }
 
-    /// One pass on the prior moved by the inverse of `pull` (whose shape is `moved`): the
-    /// network's warp as a chip px map, the moved prior at chip x being the pass's input prior
-    /// at the map's image of x.
-    fn pull<const W: usize>(
+    /// One pass of the network on the prior moved by the inverse of `pull` (whose shape is
+    /// `moved`): its warp as a chip px map, the warped prior at chip x being the pass's input
+    /// prior at the map's image of x.
+    fn pass<const W: usize>(
         &mut self,
         chip: &ChipView,
         prior: &BitMask<W>,
