@@ -5,8 +5,8 @@
 //! sky 0, the body about +1, by the prior's contrast: [`LevelSums`]), and a mask's residual is
 //! the sum of `(grey - bit)²` over them. The warp must lower it by more than the sky's noise
 //! explains over the pixels it changes ([`Comparison::candidate_is_better`]): where the body is
-//! as faint as the noise, a warp that fits the noise is not kept. Judged on the crop's resampled planes instead, a warp
-//! that shrinks a right prior around a blurred, shaded body read lower and was kept.
+//! as faint as the noise, a warp that fits the noise is not kept. (Judged on the crop's
+//! resampled planes, as it first was, warps that shrink a right prior read lower and were kept.)
 
 use super::input::{CropFrame, GreyScale, LevelSums};
 use crate::chip::ChipView;
@@ -73,10 +73,8 @@ impl<'a, const W: usize> PixelCheck<'a, W> {
             let lo = corners.iter().map(f).fold(f32::MAX, f32::min);
             let hi = corners.iter().map(f).fold(f32::MIN, f32::max);
             let first = libm::ceilf(lo).max(0.0) as usize;
-            (
-                (first).min(n),
-                (libm::floorf(hi).max(-1.0) + 1.0).max(0.0) as usize,
-            )
+            let end = (libm::floorf(hi).max(-1.0) + 1.0).max(0.0) as usize;
+            (first.min(n), end.min(n))
         };
         let (x0, x1) = extreme(|p| p.x, chip.width());
         let (y0, y1) = extreme(|p| p.y, chip.height());
@@ -84,7 +82,7 @@ impl<'a, const W: usize> PixelCheck<'a, W> {
             chip,
             prior,
             frame,
-            bounds: [x0, x1.min(chip.width()), y0, y1.min(chip.height())],
+            bounds: [x0, x1, y0, y1],
             scale: LevelSums::default().scale(),
         };
         let mut levels = LevelSums::default();
