@@ -385,8 +385,9 @@ impl<const MAX_RUNS: usize, const MAX_LABELS: usize> Labeler<MAX_RUNS, MAX_LABEL
     ///
     /// A tile of the background model ([`Background::residual_bounds`]) whose every pixel is
     /// bound to class 0 is not read: on a clear sky that is most of the chip. In the other
-    /// tiles, a row's pixels are bounded 16 at a time against the sky ([`RowLevels`]) and only
-    /// those that may leave it are classed. The runs are the same as if every pixel had been.
+    /// tiles, a row's pixels are bounded `SCREEN_PX` (32) at a time against the sky
+    /// ([`RowLevels`]) and only those that may leave it are classed. The runs are the same as if
+    /// every pixel had been.
     pub fn label(
         &mut self,
         chip: &ChipView,

@@ -45,19 +45,9 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
                 break LoopStop::Rounds;
             }
             outcome.rounds += 1;
-            let segmentation = self.guided.segment(
-                method,
-                &limits.segmentation,
-                input.chip,
-                &self.prior,
-                &mut self.guided_mask,
-            );
-            let segmentation = match segmentation {
+            let segmentation = match self.segment_around_prior(method, config, input.chip) {
                 Ok(s) => s,
-                Err(e) => {
-                    self.guided_mask.clone_from(&self.prior);
-                    break LoopStop::Failed(e);
-                }
+                Err(e) => break LoopStop::Failed(e),
             };
             outcome.last = Some(segmentation);
             if segmentation.shift_px < limits.identity_px {
@@ -99,29 +89,40 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
         self.outcome = Some(outcome);
         current
     }
-}
 
-impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
     /// The segmentation at the frame's final pose: where the loop ran and the prior has been
     /// drawn again at a pose refined after it (the grey-level fit's), the loop's method segments
     /// the chip once more around that prior. The pose is not changed: the mask is the method's
     /// answer to the best prior the frame has. Where the method fails, the prior is the mask.
     pub fn segment_at_final_pose(&mut self, chip: &ChipView, config: &MatchConfig) {
-        let limits = &config.guided;
-        let (Some(method), Some(outcome)) = (limits.method, self.outcome.as_mut()) else {
+        let Some(method) = config.guided.method.filter(|_| self.outcome.is_some()) else {
             return;
         };
+        let segmentation = self.segment_around_prior(method, config, chip);
+        if let (Ok(s), Some(outcome)) = (segmentation, self.outcome.as_mut()) {
+            outcome.last = Some(s);
+        }
+    }
+
+    /// `method`'s segmentation of `chip` around the prior, into the guided mask; where it
+    /// fails, the prior is the mask.
+    fn segment_around_prior(
+        &mut self,
+        method: GuidedMethod,
+        config: &MatchConfig,
+        chip: &ChipView,
+    ) -> Result<GuidedSegmentation, ShapeGuidedError> {
         let segmentation = self.guided.segment(
             method,
-            &limits.segmentation,
+            &config.guided.segmentation,
             chip,
             &self.prior,
             &mut self.guided_mask,
         );
-        match segmentation {
-            Ok(s) => outcome.last = Some(s),
-            Err(_) => self.guided_mask.clone_from(&self.prior),
+        if segmentation.is_err() {
+            self.guided_mask.clone_from(&self.prior);
         }
+        segmentation
     }
 }
 
