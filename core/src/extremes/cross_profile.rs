@@ -252,10 +252,16 @@ pub fn fit(
 }
 
 /// The box fit's Levenberg-Marquardt settings: the core's damping schedule, at most 30
-/// iterations, converged when a step lowers the cost by at most 1e-7 of it.
+/// iterations, converged when a step lowers the cost by at most 1e-7 of it or moves the
+/// parameters by at most 1e-6 of their size. Their size is mostly the contrast's, so a body of
+/// 100 grey levels stops once a step moves its diameter by less than 1e-4 px. On a clear sky the
+/// cost's test alone reached the minimum in 5-6 iterations and then spent as many again on trials
+/// rejected or lowering the cost by rounding (small-known-range: 11.2 iterations a fit, 5.9 with
+/// the step's test; `docs/firmware.md`, item 21).
 const SOLVER: least_squares::Config = least_squares::Config {
     max_iterations: 30,
     relative_tolerance: 1e-7,
+    step_tolerance: 1e-6,
     ..least_squares::Config::DEFAULT
 };
 

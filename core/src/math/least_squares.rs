@@ -102,6 +102,13 @@ pub struct Config {
     pub diagonal_floor: f32,
     /// Converged when an accepted trial lowers the cost by at most this fraction of it.
     pub relative_tolerance: f32,
+    /// Converged, too, when a trial moves the parameters by at most this fraction of their
+    /// size (`|trial - p| <= step_tolerance |p|`, Euclidean, as MINPACK's `xtol`), whether it
+    /// is accepted or rejected: a larger damping only shortens the step, so the point is found
+    /// to that precision. Near the minimum a cost in f32 changes by rounding only, and the cost
+    /// test alone then waits for the damping to pass its limit, a rejected trial at a time.
+    /// 0 (the default): the cost's test alone.
+    pub step_tolerance: f32,
 }
 
 impl Config {
@@ -117,6 +124,7 @@ impl Config {
         max_damping: 1e6,
         diagonal_floor: 1e-9,
         relative_tolerance: 1e-7,
+        step_tolerance: 0.0,
     };
 }
 
@@ -124,7 +132,8 @@ impl Config {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Stop {
-    /// An accepted trial lowered the cost by at most [`Config::relative_tolerance`].
+    /// An accepted trial lowered the cost by at most [`Config::relative_tolerance`], or a
+    /// trial moved the parameters by at most [`Config::step_tolerance`] of their size.
     Converged,
     /// The damping passed [`Config::max_damping`]: no step nearby lowers the cost.
     DampingLimit,
@@ -175,10 +184,13 @@ pub fn minimize<const N: usize>(
         };
         let mut trial = p + step;
         problem.constrain(&p, &mut trial);
+        let tolerance = config.step_tolerance;
+        let short_step = (trial - p).norm_squared() <= tolerance * tolerance * p.norm_squared();
         match evaluate(&trial) {
             Some(at_trial) if at_trial.cost <= at_p.cost => {
-                let converged = (at_p.cost - at_trial.cost)
-                    <= config.relative_tolerance * at_p.cost.max(COST_FLOOR);
+                let converged = short_step
+                    || (at_p.cost - at_trial.cost)
+                        <= config.relative_tolerance * at_p.cost.max(COST_FLOOR);
                 p = trial;
                 at_p = at_trial;
                 damping = (damping * config.damping_down).max(config.min_damping);
@@ -186,6 +198,10 @@ pub fn minimize<const N: usize>(
                     stop = Stop::Converged;
                     break;
                 }
+            }
+            _ if short_step => {
+                stop = Stop::Converged;
+                break;
             }
             _ => {
                 damping *= config.damping_up;
@@ -273,6 +289,36 @@ mod tests {
         assert!((s.params[0] - 2.0).abs() < 1e-4, "{s:?}");
         assert!((s.params[1] + 0.8).abs() < 1e-4, "{s:?}");
         assert_eq!(s.stop, Stop::Converged);
+    }
+
+    /// On points off the curve (a residual cost at the minimum, which f32 rounding makes
+    /// flat), the cost's test alone ends the fit only when rejected trials have raised the
+    /// damping past its limit; a step tolerance ends it as soon as a step no longer moves the
+    /// parameters, at the same point to that precision.
+    #[test]
+    fn a_step_that_no_longer_moves_the_parameters_ends_the_fit() {
+        let mut problem = curve([2.0, -0.8], exponential);
+        for (i, point) in problem.points.iter_mut().enumerate() {
+            point.1 += if i % 2 == 0 { 0.01 } else { -0.01 };
+        }
+        let start = SVector::from([1.0, 0.0]);
+        let by_cost = minimize(&problem, start, &CONFIG).unwrap();
+        let stepped = Config {
+            step_tolerance: 1e-5,
+            ..CONFIG
+        };
+        let by_step = minimize(&problem, start, &stepped).unwrap();
+        assert_eq!(by_step.stop, Stop::Converged, "{by_step:?}");
+        assert!(
+            by_step.iterations < by_cost.iterations,
+            "{by_step:?} {by_cost:?}"
+        );
+        for k in 0..2 {
+            assert!(
+                (by_step.params[k] - by_cost.params[k]).abs() < 1e-4,
+                "{by_step:?} {by_cost:?}"
+            );
+        }
     }
 
     /// Rosenbrock's valley as least squares: `r = (10 (y - x²), 1 - x)`, minimum 0 at (1, 1),

@@ -48,6 +48,7 @@ const SOLVER: least_squares::Config = least_squares::Config {
     max_damping: DAMPING,
     diagonal_floor: DIAGONAL_FLOOR,
     relative_tolerance: RELATIVE_TOLERANCE,
+    step_tolerance: 0.0,
 };
 /// Largest origin step, px: steps stay modest, the profile is piecewise linear.
 const MAX_ORIGIN_STEP_PX: f32 = 3.0;
