@@ -12,7 +12,9 @@
 //! cost is finite and not larger is accepted and `λ` shrinks; the fit has converged when the
 //! cost fell by at most a relative tolerance. Otherwise `λ` grows, and the search gives up when
 //! `λ` passes its limit; a damped matrix Cholesky cannot factor also grows `λ`, without a trial
-//! and without that limit (the iteration limit still holds). The operations are a fixed
+//! and without that limit (the iteration limit still holds). Where the config sets a step
+//! tolerance, a trial, accepted or not, that moves the parameters by at most that fraction of
+//! their size has converged too. The operations are a fixed
 //! sequence of f32 additions, multiplications, divisions and square roots (no fused multiply-add,
 //! in nalgebra's Cholesky either), so the host and the Cortex-M4F give the same bits.
 
@@ -291,10 +293,10 @@ mod tests {
         assert_eq!(s.stop, Stop::Converged);
     }
 
-    /// On points off the curve (a residual cost at the minimum, which f32 rounding makes
-    /// flat), the cost's test alone ends the fit only when rejected trials have raised the
-    /// damping past its limit; a step tolerance ends it as soon as a step no longer moves the
-    /// parameters, at the same point to that precision.
+    /// On points off the curve (a residual cost at the minimum), the cost's test alone goes on
+    /// while each step still lowers the cost by more than its tolerance of it (12 iterations);
+    /// a step tolerance ends the fit once a step no longer moves the parameters by more than
+    /// that fraction of them (5), at the same point to 1e-4.
     #[test]
     fn a_step_that_no_longer_moves_the_parameters_ends_the_fit() {
         let mut problem = curve([2.0, -0.8], exponential);
