@@ -16,7 +16,9 @@
 //! ([`crate::range_filter::smooth`]).
 
 use crate::capacity::MAX_WINDOW;
-use crate::flight_filter::{FlightFilter, FlightFilterConfig, FlightStep, RangeReading, Sight};
+use crate::flight_filter::{
+    FlightEstimate, FlightFilter, FlightFilterConfig, FlightStep, RangeReading, Sight,
+};
 use crate::point::ImagePoint;
 use crate::range_filter::{FilterStep, ImageScale, RangeFilter, RangeFilterConfig};
 
@@ -361,7 +363,17 @@ impl Temporal {
                             self.flight
                                 .update(f64::from(t), &sight, reading, &config.flight)
                         });
-                    match flown {
+                    // A flight not yet established speaks for the frame only where it agrees
+                    // with the range filter: one started from two image ranges far apart can
+                    // run off at its next frame.
+                    let gate = f64::from(config.flight.young_gate_sigmas);
+                    let agrees = |flown: &FlightEstimate| {
+                        let (a, b) = (flown.range, filtered);
+                        let sd = libm::sqrt(a.sd_m * a.sd_m + f64::from(b.sd_m * b.sd_m));
+                        libm::fabs(a.range_m - f64::from(b.range_m)) <= gate * sd
+                    };
+                    let established = self.flight.established(&config.flight);
+                    match flown.filter(|flown| established || agrees(flown)) {
                         Some(flown) => {
                             flight_rate = Some(flown.rate_m_s);
                             (flown.range.range_m as f32, Some(flown.range.sd_m as f32))
