@@ -8,13 +8,13 @@ use arbitrary::Arbitrary;
 use imade_core::extremes::cross_profile::ClutterWidth;
 use imade_core::extremes::follow::FollowConfig;
 use imade_core::extremes::orientation::FadeBridge;
+use imade_core::flight_filter::FlightFilterConfig;
 use imade_core::grey_fit::GreyFitConfig;
 use imade_core::lut::table::Table;
 use imade_core::mask::ChipMask;
 use imade_core::segment::bar::BarConfig;
 use imade_core::segment::corridor::CorridorConfig;
 use imade_core::segment::terrain::TerrainConfig;
-use imade_core::flight_filter::FlightFilterConfig;
 use imade_core::world::{Mount, WorldConfig};
 use imade_core::{
     BodyPolarity, Camera, Config, DetectConfig, FrameInput, GuidedLoopConfig, GuidedMethod,
@@ -110,9 +110,9 @@ enum ConfigSpec {
         /// not looked for).
         terrain: Option<([f32; 6], [u16; 3])>,
         max_predicted_scatter: f32,
-        /// The flight filter's float tunables in field order, its iterations, misses and whether
-        /// it runs.
-        flight: ([f32; 14], u8, u8, bool),
+        /// The flight filter's float tunables in field order, its iterations, misses, frames
+        /// to be established and whether it runs.
+        flight: ([f32; 15], u8, u8, u8, bool),
     },
 }
 
@@ -223,7 +223,7 @@ fn config(spec: &ConfigSpec) -> Config {
             world: w,
             terrain,
             max_predicted_scatter,
-            flight: (f, iterations, misses, flight_enabled),
+            flight: (f, iterations, misses, established, flight_enabled),
         } => Config {
             range_use: range_use(ignore_range),
             detect: DetectConfig {
@@ -417,7 +417,9 @@ fn config(spec: &ConfigSpec) -> Config {
                     max_misses: u32::from(misses),
                     hold_fraction: f[11],
                     size_fraction: f[12],
-                    max_step_s: f[13],
+                    established_frames: u32::from(established),
+                    young_gate_sigmas: f[13],
+                    max_step_s: f[14],
                     iterations: u32::from(iterations),
                 },
                 tz_smoothing_r,

@@ -14,8 +14,8 @@ use imade_core::extremes::{self, Silhouette};
 use imade_core::lut::render;
 use imade_core::lut::table::Table;
 use imade_core::mask::ChipMask;
-use imade_core::segment::{Expectation, Segmenter};
 use imade_core::segment::background::Background;
+use imade_core::segment::{Expectation, Segmenter};
 use imade_core::table_match::{MatchConfig, MatchInput, pose};
 use imade_core::{BodyPolarity, Camera, Config, ImagePoint};
 use imade_core_fuzz::reference;
@@ -101,16 +101,15 @@ fn prepared() -> &'static Prepared {
             .expect("the projectile is found");
         let background = segmenter.background().clone();
         let config = Config::DEFAULT.silhouette;
-        let silhouette =
-            extremes::measure(
-                &view,
-                &background,
-                &target,
-                &reference(),
-                &extremes::Prior::default(),
-                &config,
-            )
-                .expect("the projectile is measured");
+        let silhouette = extremes::measure(
+            &view,
+            &background,
+            &target,
+            &reference(),
+            &extremes::Prior::default(),
+            &config,
+        )
+        .expect("the projectile is measured");
         let range =
             closed_form::range_from_diameter(&silhouette, &CAMERA, &reference()).expect("a range");
         let closed = closed_form::solve(&silhouette, ORIGIN, &CAMERA, &reference(), range);

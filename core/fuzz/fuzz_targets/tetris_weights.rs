@@ -50,7 +50,10 @@ fuzz_target!(|input: Input| {
     let Ok(weights) = TetrisWeights::new_checked(&bytes) else {
         return;
     };
-    let (w, h) = (usize::from(input.size.0 % 64) + 1, usize::from(input.size.1 % 64) + 1);
+    let (w, h) = (
+        usize::from(input.size.0 % 64) + 1,
+        usize::from(input.size.1 % 64) + 1,
+    );
     let data: Vec<u8> = if input.samples.is_empty() {
         vec![0; w * h]
     } else {
