@@ -349,7 +349,7 @@ fn with_a_range_among_clutter_the_angle_sigmas_cover_the_failed_frames() {
 /// 606 and 1064 m (the body flew at 1068 and 1063: among clutter they scatter by 25 %), and at
 /// the next frame, 78, the young flight ran off to 201 +- 17 m where the body flew at 1060 and
 /// the range filter read 1054 +- 135: that frame's Tz was 81 % short. A flight that has corrected
-/// fewer than three frames now speaks for a frame only where it agrees with the range filter
+/// fewer than five frames now speaks for a frame only where it agrees with the range filter
 /// (`FlightFilterConfig::young_gate_sigmas`): frame 78 within 1 %, and the clip's median Tz
 /// error 63 -> 44 m/km.
 #[test]

@@ -121,7 +121,8 @@ pub struct FlightFilterConfig {
     /// else the range filter's. Started from two image ranges far apart (among clutter they
     /// scatter by 25 %), a flight's velocity is hundreds of m/s off, and its next correction
     /// can run off: small-clutter-plume without its range gave 201 +- 17 m where the body flew
-    /// at 1060 m and the range filter read 1054 +- 135.
+    /// at 1060 m and the range filter read 1054 +- 135. On 76 simulated and bundled clutter
+    /// runs, 5 frames did better than 3 (`docs/benchmarks.md`, "A young flight that runs off").
     pub established_frames: u32,
     /// See [`FlightFilterConfig::established_frames`].
     pub young_gate_sigmas: f32,
@@ -149,7 +150,7 @@ impl FlightFilterConfig {
         max_misses: 3,
         hold_fraction: 0.005,
         size_fraction: 0.05,
-        established_frames: 3,
+        established_frames: 5,
         young_gate_sigmas: 3.0,
         max_step_s: 0.05,
         iterations: 3,
