@@ -529,6 +529,8 @@ struct LoopFrame {
     /// fit's), the refined mask and the silhouette of the match the loop kept (None where the
     /// stage has no mask).
     ious: [Option<f64>; 4],
+    /// The kept match's scale, px a body diameter.
+    px_per_d: Option<f32>,
 }
 
 /// The pipeline with the bundled table and `method` over `clip`, with the grey-level fit where
@@ -587,6 +589,7 @@ fn run_loop(
                 score(pipeline.guided_mask()),
                 score(&kept),
             ],
+            px_per_d: pipeline.matched().map(|m| m.placement.px_per_unit),
         });
     }
     frames
@@ -601,7 +604,8 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// the stop rule never keeps a re-match that fits the width profile worse than the first match,
 /// the pose stays within the table match's targets (tests/table_match.rs), every frame with a
 /// pose has a refined mask, and where a re-match was accepted the silhouette of the match kept is
-/// compared with the first match's (the run without refinement).
+/// compared with the first match's (the run without refinement). Without the range, the kept
+/// match's scale is the first match's in every frame (the re-matches hold it).
 #[test]
 fn refinement_loop_on_the_table1_test_clip() {
     let clip = table1();
@@ -677,6 +681,22 @@ fn refinement_loop_on_the_table1_test_clip() {
                 paired.len()
             );
             if range_use == RangeUse::Ignore {
+                // Without a range the re-matches keep the first match's scale: every frame's
+                // kept match has the scale of the run without refinement (to the table search's
+                // rounding), and so its range.
+                for (f, n) in frames
+                    .iter()
+                    .filter_map(|f| Some((f, none.iter().find(|n| n.frame == f.frame)?)))
+                {
+                    let (Some(kept), Some(first)) = (f.px_per_d, n.px_per_d) else {
+                        panic!("frame {}: no match", f.frame);
+                    };
+                    assert!(
+                        (kept / first - 1.0).abs() < 1e-5,
+                        "frame {}: the scale moved, {first} -> {kept} px a diameter",
+                        f.frame
+                    );
+                }
                 assert!(errors(2) <= 10.0, "Tz {}", errors(2));
                 assert!(errors(3) <= 0.5, "pitch {}", errors(3));
                 assert!(errors(5) <= 6.0, "yaw best {}", errors(5));

@@ -134,7 +134,9 @@ fn refine(table: &Table, range_m: Option<u16>) {
         polarity: p.polarity,
         origin: ORIGIN,
     };
-    let range = range_m.map(f32::from);
+    let scale = range_m.map_or(pose::MatchScale::Free, |r| {
+        pose::MatchScale::Range(f32::from(r))
+    });
     let config = MatchConfig::DEFAULT;
     let Ok(refined) = pose::match_pose(
         &frame,
@@ -142,7 +144,7 @@ fn refine(table: &Table, range_m: Option<u16>) {
         &reference(),
         &CAMERA,
         &p.closed,
-        range,
+        scale,
         &config,
     ) else {
         return;

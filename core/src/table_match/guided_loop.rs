@@ -38,6 +38,13 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
         let (Some(method), Some(table)) = (limits.method, self.table) else {
             return first;
         };
+        // Without a range the re-matches keep the first match's scale: the segmentation moves
+        // the axis and the ends, and a section read across the moved axis scattered the image
+        // range by up to 11 % either way (table1-test without its range, TETRIS: 17 frames).
+        let scale = range_m.map_or(
+            pose::MatchScale::Held(first.placement.px_per_unit),
+            pose::MatchScale::Range,
+        );
         let mut outcome = LoopOutcome::start(method, &first);
         let (mut current, mut measured) = (first, *input.silhouette);
         outcome.stop = loop {
@@ -73,7 +80,7 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
                 model,
                 camera,
                 &moved.closed,
-                range_m,
+                scale,
                 config,
             ) else {
                 break LoopStop::NoMatch;

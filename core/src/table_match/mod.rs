@@ -350,7 +350,7 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
                 model,
                 camera,
                 &hypothesis.solution,
-                range,
+                range.map_or(pose::MatchScale::Free, pose::MatchScale::Range),
                 config,
             )
             .ok()

@@ -72,18 +72,33 @@ pub struct MatchInput<'a> {
     pub origin: (i32, i32),
 }
 
-/// Matches `table` to the frame, starting from the closed-form `closed`; `range_m` is the known
-/// range, if any.
+/// Where a match's scale comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MatchScale {
+    /// The range is known (a sensor's, or the flight's held one), m.
+    Range(f32),
+    /// The range is not known, and the scale is held at this many px a body diameter: the
+    /// shape-guided loop's re-match, at its first match's scale.
+    Held(f32),
+    /// The range is not known: the scale is the shaded section's diameter.
+    Free,
+}
+
+/// Matches `table` to the frame, starting from the closed-form `closed`, at `scale`.
 pub fn match_pose(
     frame: &MatchInput,
     table: &Table,
     model: &ProjectileModel,
     camera: &Camera,
     closed: &ClosedForm,
-    range_m: Option<f32>,
+    scale: MatchScale,
     config: &MatchConfig,
 ) -> Result<MatchedPose, MatchError> {
     let sil = frame.silhouette;
+    let range_m = match scale {
+        MatchScale::Range(r) => Some(r),
+        MatchScale::Held(_) | MatchScale::Free => None,
+    };
     let section = cylinder_section(frame, model, config, range_m.is_none())?;
     let axis = sil.axis;
     let sigma = section.sigma_px;
@@ -124,13 +139,18 @@ pub fn match_pose(
         half_length_d: 0.5 * model.length_m / model.diameter_m,
         max_roll_deg: model.distinct_roll_deg(),
     };
-    let px_per_d_known = range_m.map(|r| {
-        model.diameter_m / (r * camera.normalized_length(1.0, across)).max(f32::MIN_POSITIVE)
-    });
-    // The scale: the range's where it is known, else the shaded section's diameter (the width
-    // profile's own scale leans on the fins' unknown contrast and came out 1-3 % low).
+    // The scale: the range's where it is known, the held one, else the shaded section's
+    // diameter (the width profile's own scale leans on the fins' unknown contrast and came out
+    // 1-3 % low).
+    let px_per_d = match scale {
+        MatchScale::Range(r) => {
+            model.diameter_m / (r * camera.normalized_length(1.0, across)).max(f32::MIN_POSITIVE)
+        }
+        MatchScale::Held(px_per_d) => px_per_d,
+        MatchScale::Free => d_px,
+    };
     let start = Fit {
-        px_per_d: px_per_d_known.unwrap_or(d_px),
+        px_per_d,
         origin_t: 0.5 * (sil.nose_t + sil.tail_t),
         cost: 0.0,
     };
