@@ -5,7 +5,7 @@
 //! bin holds the silhouette's width there in px; blur moves no contrast across the axis, so the
 //! profile is the true width profile blurred only along the axis.
 
-use super::{Axis, row_span};
+use super::{Axis, passing_span, row_span};
 use crate::capacity::PROFILE_BINS;
 use crate::chip::ChipView;
 use crate::config::BodyPolarity;
@@ -56,23 +56,27 @@ impl WidthProfile {
         let scale = 1.0 / (contrast.max(1e-6) * bin);
         let along = (start - bin, start + (bins as f32 + 1.0) * bin);
         let mut spans = SkySpans::new();
+        // The bins' positions of the pixels within `band` px of the axis.
+        let position_at = |x: usize, y: usize| {
+            let (along, across) = axis.local(x as f32, y as f32);
+            let position = (along - start) / bin - 0.5;
+            let inside =
+                !(libm::fabsf(across) > band || position < -1.0 || position >= bins as f32);
+            (position, inside)
+        };
         for y in y_lo..y_hi {
-            let (x0, x1) = row_span(axis.centre, axis.dir, y, along, band, (x_lo, x_hi));
+            let (x0, x1) = passing_span(
+                row_span(axis.centre, axis.dir, y, along, band, (x_lo, x_hi)),
+                |x| position_at(x, y).1,
+            );
             spans.for_each_in_span(&background.row(y), chip, x0, x1, |x, v, sky| {
-                let (along, across) = axis.local(x as f32, y as f32);
-                if libm::fabsf(across) > band {
-                    return;
-                }
+                let (position, _) = position_at(x, y);
                 let value = sign * (f32::from(v) - sky);
                 let (profile, value) = if value < cutoff {
                     (&mut opposite, -value)
                 } else {
                     (&mut width, value)
                 };
-                let position = (along - start) / bin - 0.5;
-                if position < -1.0 || position >= bins as f32 {
-                    return;
-                }
                 // Shared linearly by the bins either side: bin `lower` (-1 before the first:
                 // none) and the next (`bins` past the last: none). The floor by truncation,
                 // exact for these values and cheaper on the M4F than `libm::floorf`.

@@ -10,7 +10,7 @@
 //! giving the diameter `d` in px (blur-free: the box edges sit where the blurred profile crosses
 //! half the contrast), the contrast `C0` at the axis, the blur `sigma` and the axis offset `s0`.
 
-use super::row_span;
+use super::{passing_span, row_span};
 use crate::chip::ChipView;
 use crate::config::BodyPolarity;
 use crate::math::least_squares::{self, Normal};
@@ -120,20 +120,28 @@ pub fn bin(
     let y_lo = (cy - reach).max(0.0) as usize;
     let y_hi = ((cy + reach).max(0.0) as usize + 1).min(chip.height());
     let mut spans = SkySpans::new();
+    let line = shape.line();
+    // The pixel's place across, and whether it lies in the stretch within `half_width` of it.
+    let across_at = |x: usize, y: usize| {
+        let (along, across) = line.local(x as f32, y as f32);
+        let inside =
+            !(along < stretch.t0 || along >= stretch.t1 || libm::fabsf(across) >= half_width);
+        (across, inside)
+    };
     for y in y_lo..y_hi {
-        let (x0, x1) = row_span(
-            shape.centre,
-            shape.axis,
-            y,
-            (stretch.t0, stretch.t1),
-            half_width,
-            (x_lo, x_hi),
+        let (x0, x1) = passing_span(
+            row_span(
+                shape.centre,
+                shape.axis,
+                y,
+                (stretch.t0, stretch.t1),
+                half_width,
+                (x_lo, x_hi),
+            ),
+            |x| across_at(x, y).1,
         );
         spans.for_each_in_span(&background.row(y), chip, x0, x1, |x, v, sky| {
-            let (along, across) = shape.line().local(x as f32, y as f32);
-            if along < stretch.t0 || along >= stretch.t1 || libm::fabsf(across) >= half_width {
-                return;
-            }
+            let (across, _) = across_at(x, y);
             let i = ((across + half_width) / bin_width) as usize;
             if let (Some(s), Some(c)) = (binned.sum.get_mut(i), binned.count.get_mut(i)) {
                 *s += sign * (f32::from(v) - sky);

@@ -183,6 +183,24 @@ pub fn row_span(
     ((lo as usize).max(x_range.0), (hi as usize).min(x_range.1))
 }
 
+/// The columns of `span` (`start..end`) from the first for which `passes` holds to the last:
+/// the same columns as testing each, where the columns that pass form one interval. They do for
+/// a test of distances along and across a line that are computed the same way at every column
+/// ([`Axis::local`]): those are monotone along a row in f32 too (each rounding is), so each
+/// bound on them holds on an interval of columns, and so do several bounds together. Testing
+/// from the ends inward leaves the columns between untested: the per-pixel loops over a body's
+/// rows then skip the test.
+pub fn passing_span(span: (usize, usize), passes: impl Fn(usize) -> bool) -> (usize, usize) {
+    let (mut start, mut end) = span;
+    while start < end && !passes(start) {
+        start += 1;
+    }
+    while end > start && !passes(end - 1) {
+        end -= 1;
+    }
+    (start, end)
+}
+
 /// Image measurements of the silhouette.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -835,5 +853,43 @@ fn average(a: &CrossSection, b: &CrossSection) -> CrossSection {
         sigma_px: mean(a.sigma_px, b.sigma_px),
         offset_px: mean(a.offset_px, b.offset_px),
         pixels: a.pixels + b.pixels,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Over axes at many angles and offsets, each row's passing span holds exactly the columns
+    /// that pass the width profile's test one by one (within a band across, within the bins
+    /// along): the columns that pass form one interval, and the span is it.
+    #[test]
+    fn a_passing_span_is_the_columns_that_pass_one_by_one() {
+        let (along, band) = ((-37.5f32, 41.0f32), 3.7f32);
+        let mut spans = 0;
+        for k in 0..72 {
+            let angle = k as f32 * 5.0_f32.to_radians() + 0.013;
+            let axis = Axis {
+                centre: ImagePoint::new(60.3, 47.8),
+                dir: ImagePoint::new(libm::cosf(angle), libm::sinf(angle)),
+            };
+            let passes = |x: usize, y: usize| {
+                let (t, across) = axis.local(x as f32, y as f32);
+                !(libm::fabsf(across) > band || t < along.0 || t >= along.1)
+            };
+            for y in 0..100 {
+                let (start, end) = passing_span(
+                    row_span(axis.centre, axis.dir, y, along, band, (0, 120)),
+                    |x| passes(x, y),
+                );
+                let one_by_one: heapless::Vec<usize, 120> =
+                    (0..120).filter(|&x| passes(x, y)).collect();
+                let spanned: heapless::Vec<usize, 120> = (start..end).collect();
+                assert_eq!(spanned, one_by_one, "angle {k} x 5 deg, row {y}");
+                spans += usize::from(start < end);
+            }
+        }
+        // Most rows of most axes cross the band.
+        assert!(spans > 2000, "{spans}");
     }
 }
