@@ -926,53 +926,33 @@ fn tile_median(
         .unwrap_or_default()
         .iter()
         .sum();
-    let median = median_of(chip, rect, &keep, coarse, total, (lowest, highest));
+    let range = (
+        (lowest as u16) << shift,
+        ((highest as u16) << shift) | ((1u16 << shift) - 1),
+    );
+    let half = total as f32 * 0.5;
+    let (bin, below) = median_bin(coarse, lowest, half);
+    let level = if shift == 0 {
+        interpolated(bin, below, coarse, half, 1.0)
+    } else {
+        // 16-bit: a second pass over the low byte of the values in the median's coarse bin.
+        let mut fine = [0u32; 256];
+        for y in y0..y1 {
+            chip.for_each_in_span(y, x0, x1, |x, v| {
+                if usize::from(v >> 8) == bin && keep(x, y) {
+                    fine[usize::from(v as u8)] += 1;
+                }
+            });
+        }
+        let (fine_bin, fine_below) = median_bin(&fine, 0, half - below as f32);
+        (bin as f32) * 256.0 + interpolated(fine_bin, fine_below, &fine, half - below as f32, 1.0)
+    };
     if let Some(filled) = coarse.get_mut(lowest..=highest) {
         filled.fill(0);
     }
-    median
-}
-
-/// [`tile_median`] from the tile's histogram `coarse` of `total` pixels, whose lowest and highest
-/// non-empty bins are `filled`.
-fn median_of(
-    chip: &ChipView,
-    rect: (usize, usize, usize, usize),
-    keep: &impl Fn(usize, usize) -> bool,
-    coarse: &[u32; 256],
-    total: u32,
-    filled: (usize, usize),
-) -> TileMedian {
-    let (x0, y0, x1, y1) = rect;
-    let shift = if chip.is_16bit() { 8 } else { 0 };
-    let (lowest, highest) = (filled.0 as u16, filled.1 as u16);
-    let range = (lowest << shift, (highest << shift) | ((1u16 << shift) - 1));
-    let half = total as f32 * 0.5;
-    let (bin, below) = median_bin(coarse, usize::from(lowest), half);
-    let pixels = total as usize;
-    if shift == 0 {
-        let level = interpolated(bin, below, coarse, half, 1.0);
-        return TileMedian {
-            level,
-            pixels,
-            range,
-        };
-    }
-    // 16-bit: a second pass over the low byte of the values in the median's coarse bin.
-    let mut fine = [0u32; 256];
-    for y in y0..y1 {
-        chip.for_each_in_span(y, x0, x1, |x, v| {
-            if usize::from(v >> 8) == bin && keep(x, y) {
-                fine[usize::from(v as u8)] += 1;
-            }
-        });
-    }
-    let (fine_bin, fine_below) = median_bin(&fine, 0, half - below as f32);
-    let level =
-        (bin as f32) * 256.0 + interpolated(fine_bin, fine_below, &fine, half - below as f32, 1.0);
     TileMedian {
         level,
-        pixels,
+        pixels: total as usize,
         range,
     }
 }
