@@ -82,11 +82,12 @@ impl Stretch {
     }
 }
 
-/// One column's share of the blurred contrast at a point.
-struct Share {
-    /// The Gaussian's weight along the axis, and the column's offset from the point in sigmas.
-    weight: f32,
-    along: f32,
+/// One column's blur across at a point: everything of its share of the blurred contrast but the
+/// Gaussian's weight along the axis. It depends on the column's edges and the point's `v` only,
+/// so the columns that repeat their neighbour's edges ([`Outline::repeats_previous`]: most of a
+/// body's cylinder) share it.
+#[derive(Debug, Clone, Copy)]
+struct Across {
     /// The whole column.
     whole: Stretch,
     /// The fins' faces' stretches summed, weighted by their `w` and by `w²`.
@@ -106,18 +107,15 @@ struct Share {
     w: f32,
     s: f32,
     half: f32,
+    /// The column's blurred `1, w, w²` (before the weight): `1` over the column, `w` and `w²`
+    /// across the body and at each fin face's own `w`.
+    terms: [f32; 3],
 }
 
-impl Share {
-    /// Column `j`'s share at `(u, v)` for blur `sigma`, m; None where it adds nothing.
+impl Across {
+    /// Column `j`'s blur across at `v` for blur `sigma`, m; None where it adds nothing.
     #[inline]
-    fn of<const C: usize>(
-        outline: &Outline<C>,
-        j: usize,
-        u: f32,
-        v: f32,
-        sigma: f32,
-    ) -> Option<Share> {
+    fn of<const C: usize>(outline: &Outline<C>, j: usize, v: f32, sigma: f32) -> Option<Across> {
         let (lower, upper) = outline.edges(j)?;
         let inv_sigma = 1.0 / sigma;
         let in_sigmas = |edge: f32| (edge - v) * inv_sigma;
@@ -126,12 +124,10 @@ impl Share {
             // Beyond the column's reach across: nothing of it is blurred this far.
             return None;
         }
-        let along = (outline.u_m(j) - u) * inv_sigma;
         let (bottom, top) = (Edge::at(alpha), Edge::at(beta));
-        let mut share = Share {
-            weight: normal::pdf(along),
-            along,
-            whole: Stretch::between(bottom, top),
+        let whole = Stretch::between(bottom, top);
+        let mut across = Across {
+            whole,
             faces: [Stretch::default(); 2],
             alpha: 0.0,
             beta: 0.0,
@@ -143,11 +139,12 @@ impl Share {
             w: 0.0,
             s: 0.0,
             half: 1.0,
+            terms: [whole.m0, 0.0, 0.0],
         };
         // The body's own stretch (none where only fins cross the column) and the fins' faces
         // beyond it, their edges shared where they meet.
         let Some((body_lower, body_upper)) = outline.body_edges(j) else {
-            return Some(share);
+            return Some(across);
         };
         let a = Edge::at_or(in_sigmas(body_lower), bottom);
         let b = Edge::at_or(in_sigmas(body_upper), top);
@@ -160,13 +157,13 @@ impl Share {
                 (Stretch::between(split_below, a), front_below.w),
                 (Stretch::between(bottom, split_below), outer_below.w),
             ] {
-                share.faces[0].add(&stretch, w);
-                share.faces[1].add(&stretch, w * w);
+                across.faces[0].add(&stretch, w);
+                across.faces[1].add(&stretch, w * w);
             }
         }
         let m0 = b.cdf - a.cdf;
         let half = (0.5 * (body_upper - body_lower)).max(f32::MIN_POSITIVE);
-        Some(Share {
+        let across = Across {
             alpha: a.x,
             beta: b.x,
             pdf_a: a.pdf,
@@ -177,14 +174,17 @@ impl Share {
             w: (v - 0.5 * (body_upper + body_lower)) / half,
             s: sigma / half,
             half,
-            ..share
+            ..across
+        };
+        Some(Across {
+            terms: across.body_terms(),
+            ..across
         })
     }
 
-    /// The column's blurred `1, w, w²` (before the weight): `1` over the column, `w` and `w²`
-    /// across the body and at each fin face's own `w`.
+    /// The blurred `1, w, w²` of a column the body crosses.
     #[inline]
-    fn terms(&self) -> [f32; 3] {
+    fn body_terms(&self) -> [f32; 3] {
         let (w, s) = (self.w, self.s);
         let mut terms = [
             self.whole.m0,
@@ -197,6 +197,17 @@ impl Share {
     }
 }
 
+/// One column's share of the blurred contrast at a point.
+struct Share {
+    /// The Gaussian's weight along the axis, and the column's offset from the point in sigmas.
+    weight: f32,
+    along: f32,
+    /// The column's blur across.
+    across: Across,
+    /// Whether `across` is the previous share's (the column repeats its neighbour's edges).
+    repeats: bool,
+}
+
 /// The columns summed at `(u, v)` for blur `sigma`, m.
 fn shares<const C: usize>(
     outline: &Outline<C>,
@@ -204,9 +215,26 @@ fn shares<const C: usize>(
     v: f32,
     sigma: f32,
 ) -> impl Iterator<Item = Share> + '_ {
+    let inv_sigma = 1.0 / sigma;
+    // The previous column's blur across (None: it added nothing), once there is one.
+    let mut previous: Option<Option<Across>> = None;
     outline
         .columns_within(u - REACH * sigma, u + REACH * sigma)
-        .filter_map(move |j| Share::of(outline, j, u, v, sigma))
+        .filter_map(move |j| {
+            let repeats = previous.is_some() && outline.repeats_previous(j);
+            let across = match previous {
+                Some(across) if repeats => across,
+                _ => Across::of(outline, j, v, sigma),
+            };
+            previous = Some(across);
+            let along = (outline.u_m(j) - u) * inv_sigma;
+            across.map(|across| Share {
+                weight: normal::pdf(along),
+                along,
+                across,
+                repeats,
+            })
+        })
 }
 
 /// The coefficients of `c0, c1, c2` in the blurred contrast at silhouette-frame point `(u, v)`,
@@ -214,7 +242,7 @@ fn shares<const C: usize>(
 pub fn body_basis<const C: usize>(outline: &Outline<C>, u: f32, v: f32, sigma: f32) -> [f32; 3] {
     let mut basis = [0.0f32; 3];
     for share in shares(outline, u, v, sigma) {
-        for (b, t) in basis.iter_mut().zip(share.terms()) {
+        for (b, t) in basis.iter_mut().zip(share.across.terms) {
             *b += share.weight * t;
         }
     }
@@ -237,24 +265,19 @@ pub struct BodyImage {
     pub d_sigma: f32,
 }
 
-/// [`body_basis`] with the derivatives of the contrast `c0 + c1 w + c2 w²` (`shading`) in `u`,
-/// `v` and `sigma`, by differentiating the moments of the truncated normal.
-pub fn body_image<const C: usize>(
-    outline: &Outline<C>,
-    u: f32,
-    v: f32,
-    sigma: f32,
-    shading: [f32; 3],
-) -> BodyImage {
-    let inv_sigma = 1.0 / sigma;
-    let contrast = |t: [f32; 3]| contrast(shading, t);
-    let (mut basis, mut d_u, mut d_v, mut d_sigma) = ([0.0f32; 3], 0.0, 0.0, 0.0);
-    for c in shares(outline, u, v, sigma) {
-        let t = c.terms();
-        for (b, t) in basis.iter_mut().zip(t) {
-            *b += c.weight * t;
-        }
-        let value = contrast(t);
+/// A column's blurred contrast `c0 + c1 w + c2 w²` (before the Gaussian's weight along the
+/// axis) and its derivatives across and in the blur, grey levels (per m).
+#[derive(Debug, Clone, Copy)]
+struct ColumnContrast {
+    value: f32,
+    across: f32,
+    blur: f32,
+}
+
+impl ColumnContrast {
+    /// Of the column blurred as `c` across, shaded by `shading`, for a blur of `1 / inv_sigma` m.
+    #[inline]
+    fn of(c: &Across, shading: [f32; 3], inv_sigma: f32) -> ColumnContrast {
         let (a, b, w, s, h) = (c.alpha, c.beta, c.w, c.s, c.half);
         let (m0, m1, m2) = (c.m0, c.m1, c.m2);
         // x phi(x), x² phi(x) and (1 - x²) phi(x) between the edges.
@@ -280,16 +303,46 @@ pub fn body_image<const C: usize>(
                 + 2.0 * s / h * m2
                 + (-w * w * n1 - 2.0 * w * s * q + s * s * (r - n1) - by_w2.n1) * inv_sigma,
         ];
+        ColumnContrast {
+            value: contrast(shading, c.terms),
+            across: contrast(shading, across),
+            blur: contrast(shading, blur),
+        }
+    }
+}
+
+/// [`body_basis`] with the derivatives of the contrast `c0 + c1 w + c2 w²` (`shading`) in `u`,
+/// `v` and `sigma`, by differentiating the moments of the truncated normal.
+pub fn body_image<const C: usize>(
+    outline: &Outline<C>,
+    u: f32,
+    v: f32,
+    sigma: f32,
+    shading: [f32; 3],
+) -> BodyImage {
+    let inv_sigma = 1.0 / sigma;
+    let (mut basis, mut d_u, mut d_v, mut d_sigma) = ([0.0f32; 3], 0.0, 0.0, 0.0);
+    // The last column's contrasts, which a column that repeats its edges shares.
+    let mut last: Option<ColumnContrast> = None;
+    for c in shares(outline, u, v, sigma) {
+        for (b, t) in basis.iter_mut().zip(c.across.terms) {
+            *b += c.weight * t;
+        }
+        let column = match last {
+            Some(column) if c.repeats => column,
+            _ => ColumnContrast::of(&c.across, shading, inv_sigma),
+        };
+        last = Some(column);
         // The weight phi((u_j - u) / sigma) in u and in sigma.
         let x = c.along;
-        d_u += x * c.weight * inv_sigma * value;
-        d_v += c.weight * contrast(across);
-        d_sigma += x * x * c.weight * inv_sigma * value + c.weight * contrast(blur);
+        d_u += x * c.weight * inv_sigma * column.value;
+        d_v += c.weight * column.across;
+        d_sigma += x * x * c.weight * inv_sigma * column.value + c.weight * column.blur;
     }
     let scale = outline.step_m() * inv_sigma;
     let basis = basis.map(|b| b * scale);
     // The scale's own derivative in sigma: -1/sigma times the contrast.
-    let d_sigma = scale * d_sigma - contrast(basis) * inv_sigma;
+    let d_sigma = scale * d_sigma - contrast(shading, basis) * inv_sigma;
     BodyImage {
         basis,
         d_u: scale * d_u,
@@ -346,6 +399,47 @@ mod tests {
         assert!((b[0] - 1.0).abs() < 2e-3, "{b:?}");
         assert!((b[1] - w).abs() < 2e-3, "{b:?}");
         assert!((b[2] - (w * w + s * s)).abs() < 2e-3, "{b:?}");
+    }
+
+    /// Along the reference's cylinder most columns repeat their neighbour's edges, and the
+    /// image made from the repeated columns' shared blur is, bit for bit, the image with every
+    /// column worked out afresh: at the tail, the fins, mid-body, the nose and off the body,
+    /// with the fins' faces apart and as the body.
+    #[test]
+    fn repeated_columns_give_the_image_of_every_column_afresh() {
+        let view = View {
+            tilt_deg: 25.0,
+            roll_deg: 30.0,
+        };
+        for fins in [NOSE_AWAY, super::super::outline::Fins::AsBody] {
+            let outline = Outline::<512>::build(&reference(), &view, 400, fins).unwrap();
+            let repeating = (0..outline.columns())
+                .filter(|&j| outline.repeats_previous(j))
+                .count();
+            assert!(repeating > 200, "{repeating} of 400 columns repeat");
+            let afresh = outline.without_repeats();
+            let shading = [-120.0, 20.0, -15.0];
+            let sigma = 0.012;
+            for (u, v) in [
+                (-0.62, 0.03),
+                (-0.55, 0.09),
+                (0.1, 0.041),
+                (0.2, -0.01),
+                (0.6, 0.015),
+                (0.3, 0.3),
+            ] {
+                assert_eq!(
+                    body_image(&outline, u, v, sigma, shading),
+                    body_image(&afresh, u, v, sigma, shading),
+                    "({u}, {v})"
+                );
+                assert_eq!(
+                    body_basis(&outline, u, v, sigma),
+                    body_basis(&afresh, u, v, sigma),
+                    "({u}, {v})"
+                );
+            }
+        }
     }
 
     /// The derivatives agree with central differences of the image itself, near the base,

@@ -45,6 +45,9 @@ pub struct Outline<const C: usize> {
     faces_apart: bool,
     /// ... and, then, those beyond the body in each column: above it and below it.
     faces: [[FinFaces; 2]; C],
+    /// Whether each column's edges, body edges and fins' faces are the previous column's
+    /// (along a cylinder most are), so that its image is too.
+    repeats: [bool; C],
 }
 
 /// Widens column `j` of the edges `lower` and `upper` to take in `span` (lower, upper `v`, m).
@@ -159,11 +162,18 @@ impl<const C: usize> Outline<C> {
             body_lower: [f32::INFINITY; C],
             faces_apart: depth_sign.is_some(),
             faces: [[FinFaces::NONE; 2]; C],
+            repeats: [false; C],
         };
         for_each_part(model, view, |t, fin| {
             let fin = fin.zip(depth_sign).map(|((sin, cos), d)| (d * sin, cos));
             outline.cover(t, fin);
         });
+        for j in 1..columns {
+            let repeats = outline.column(j) == outline.column(j - 1);
+            if let Some(slot) = outline.repeats.get_mut(j) {
+                *slot = repeats;
+            }
+        }
         Some(outline)
     }
 
@@ -280,6 +290,29 @@ impl<const C: usize> Outline<C> {
             return 0..0;
         }
         (first as usize).min(self.columns)..(last as usize).min(self.columns)
+    }
+
+    /// Whether column `j`'s edges, body edges and fins' faces are those of column `j - 1`
+    /// (exactly: a NaN anywhere makes them differ).
+    #[inline]
+    pub fn repeats_previous(&self, j: usize) -> bool {
+        self.repeats.get(j).copied().unwrap_or(false)
+    }
+
+    /// What column `j` holds: its edges, its body's edges and the fins' faces beyond it.
+    #[allow(clippy::type_complexity)]
+    fn column(&self, j: usize) -> (Option<(f32, f32)>, Option<(f32, f32)>, Option<[FinFace; 4]>) {
+        (self.edges(j), self.body_edges(j), self.fin_faces(j))
+    }
+
+    /// The same outline with no column marked as repeating its neighbour (every column's image
+    /// worked out afresh).
+    #[cfg(test)]
+    pub fn without_repeats(&self) -> Outline<C> {
+        Outline {
+            repeats: [false; C],
+            ..self.clone()
+        }
     }
 
     /// Column `j`'s (lower, upper) edge `v`, m; None where it crosses nothing.
