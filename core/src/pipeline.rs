@@ -478,7 +478,7 @@ impl<
                 range_sensed: hypothesis.sensor_range_m().is_some(),
                 nose_towards: prediction.nose_away.map(|away| !away),
                 plume_at_tail: hypothesis.silhouette.plume_at_tail,
-                cluttered_sky: self.detect.background().follows_corridor(),
+                cluttered_sky: measurement.cluttered_sky,
                 flight_tilt_deg: flight.and_then(|f| f.tilt_deg()),
             };
             measurement.fitted = grey_fit::fit::<OUTLINE_COLUMNS>(
@@ -661,6 +661,19 @@ impl<
         (solve(whole * (1.0 - fraction).max(0.5)), far)
     }
 
+    /// One sigma of the slant range of `measured` at the temporal `estimate`, m: the filters',
+    /// and without a range sensor among clutter also the image range's systematic error there
+    /// ([`crate::uncertainty::UncertaintyConfig::cluttered_range_fraction`]), which the
+    /// filters do not know.
+    fn range_sd_m(&self, measured: &Measurement, estimate: &Estimate) -> Option<f32> {
+        let sd = estimate.range_sd_m?;
+        if !measured.cluttered_sky || measured.hypothesis.sensor_range_m().is_some() {
+            return Some(sd);
+        }
+        let systematic = self.config.uncertainty.cluttered_range_fraction * estimate.range_m;
+        Some(libm::hypotf(sd, systematic))
+    }
+
     /// The ok result of `measured` at the temporal `estimate`, its ends placed to `end_sd`: the
     /// angles' sigmas carry that and the range's sigma through the solution
     /// ([`crate::uncertainty`]); they are the chosen candidate's, not counting the choice.
@@ -688,9 +701,28 @@ impl<
         let lengths = f32::from(measured.lengths_averaged());
         let length_fraction =
             core::f32::consts::SQRT_2 * end_sd.along_px / length_px / libm::sqrtf(lengths);
-        let range_fraction = estimate.range_sd_m.map_or(0.0, |sd| sd / estimate.range_m);
-        let fraction =
-            libm::sqrtf(length_fraction * length_fraction + range_fraction * range_fraction);
+        let range_sd_m = self.range_sd_m(measured, estimate);
+        let range_fraction = range_sd_m.map_or(0.0, |sd| sd / estimate.range_m);
+        // Without a range sensor, among clutter, a silhouette whose own scale disagrees with
+        // the range taken has its length or its diameter misread by about that fraction (a
+        // filament along the body, a plume over its base): its aspect is that much less sure.
+        // (On a clear sky the disagreement is the image range's own noise, which the length's
+        // and the range's sigmas already count.)
+        let disagreement = match (
+            measured.cluttered_sky,
+            measured.hypothesis.sensor_range_m(),
+            measured.image_range_m(),
+        ) {
+            (true, None, Some(image_range_m)) => {
+                libm::fabsf(image_range_m - estimate.range_m) / estimate.range_m
+            }
+            _ => 0.0,
+        };
+        let fraction = libm::sqrtf(
+            length_fraction * length_fraction
+                + range_fraction * range_fraction
+                + disagreement * disagreement,
+        );
         let mut variance = AngleVariance::default();
         let (near, far) = self.aspect_interval(measured, estimate.range_m, fraction);
         variance.add_half_gap(&pick(far).1, &pick(near).1);
@@ -738,7 +770,7 @@ impl<
             roll_deg: roll.map(|r| r.0),
             roll_sd_deg: roll.map(|r| r.1),
             // The depth is the slant range times the line of sight's cosine: so is its sigma.
-            tz_sd_m: estimate.range_sd_m.map(|sd| sd * tz_m / estimate.range_m),
+            tz_sd_m: range_sd_m.map(|sd| sd * tz_m / estimate.range_m),
             pitch_sd_deg,
             yaw_sd_deg,
             image_range_m: measured.image_range_m().unwrap_or(0.0),

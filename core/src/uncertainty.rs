@@ -64,6 +64,11 @@ pub struct UncertaintyConfig {
     /// ... and the body is tilted at least this far out of the image plane, deg: seen
     /// broadside, fins turned either way cast the same outline.
     pub min_roll_tilt_deg: f32,
+    /// Without a range sensor, where the sky beside the body is cluttered: the image range's
+    /// systematic error, one sigma as a fraction of the range, in quadrature with the filters'
+    /// sigma (which counts the clear sky's). Filaments along the body and a plume over its base
+    /// widen the silhouette, and the image ranges read short for many frames together.
+    pub cluttered_range_fraction: f32,
 }
 
 impl UncertaintyConfig {
@@ -81,6 +86,7 @@ impl UncertaintyConfig {
         fit_min_roll_sd_as_body_deg: 5.0,
         max_roll_sd_deg: 10.0,
         min_roll_tilt_deg: 5.0,
+        cluttered_range_fraction: 0.2,
     };
 }
 

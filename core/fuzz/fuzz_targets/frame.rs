@@ -96,7 +96,7 @@ enum ConfigSpec {
         /// The clutter width's stretches and tunables, in their field order (None: not read).
         clutter_width: Option<(u8, [f32; 2])>,
         /// Every tunable of the uncertainties, in their field order.
-        uncertainty: [f32; 12],
+        uncertainty: [f32; 13],
         /// The grey-level fit: whether it runs, then its tunables (pixels, roll starts,
         /// iterations, the rest in field order).
         grey_fit: (bool, u16, u8, u8, u8, [f32; 14]),
@@ -366,6 +366,7 @@ fn config(spec: &ConfigSpec) -> Config {
                 min_roll_tilt_deg: u[9],
                 fit_min_roll_sd_as_body_deg: u[10],
                 fit_faces_gain: u[11],
+                cluttered_range_fraction: u[12],
             },
             grey_fit: GreyFitConfig {
                 enabled: g.0,

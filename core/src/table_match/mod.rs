@@ -176,6 +176,10 @@ pub struct Measurement {
     pub matched: Option<MatchedPose>,
     /// The grey-level fit from the match, where it ran and converged inside its bounds.
     pub fitted: Option<GreyFitted>,
+    /// Whether the sky beside the body is cluttered: the detection's sky follows the body's
+    /// corridor ([`Background::follows_corridor`]), as it does among clouds, filaments and
+    /// terrain.
+    pub cluttered_sky: bool,
 }
 
 impl Measurement {
@@ -367,6 +371,7 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
             hypothesis: *hypothesis,
             matched,
             fitted: None,
+            cluttered_sky: background.follows_corridor(),
         }
     }
 
