@@ -667,7 +667,7 @@ impl<
     /// filters do not know.
     fn range_sd_m(&self, measured: &Measurement, estimate: &Estimate) -> Option<f32> {
         let sd = estimate.range_sd_m?;
-        if !measured.cluttered_sky || measured.hypothesis.sensor_range_m().is_some() {
+        if !measured.among_clutter() || measured.hypothesis.sensor_range_m().is_some() {
             return Some(sd);
         }
         let systematic = self.config.uncertainty.cluttered_range_fraction * estimate.range_m;
@@ -709,7 +709,7 @@ impl<
         // (On a clear sky the disagreement is the image range's own noise, which the length's
         // and the range's sigmas already count.)
         let disagreement = match (
-            measured.cluttered_sky,
+            measured.among_clutter(),
             measured.hypothesis.sensor_range_m(),
             measured.image_range_m(),
         ) {

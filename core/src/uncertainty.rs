@@ -64,10 +64,12 @@ pub struct UncertaintyConfig {
     /// ... and the body is tilted at least this far out of the image plane, deg: seen
     /// broadside, fins turned either way cast the same outline.
     pub min_roll_tilt_deg: f32,
-    /// Without a range sensor, where the sky beside the body is cluttered: the image range's
+    /// Without a range sensor, among clutter (a cluttered sky beside the body, or terrain in
+    /// the chip: [`crate::table_match::Measurement::among_clutter`]): the image range's
     /// systematic error, one sigma as a fraction of the range, in quadrature with the filters'
-    /// sigma (which counts the clear sky's). Filaments along the body and a plume over its base
-    /// widen the silhouette, and the image ranges read short for many frames together.
+    /// sigma (which counts the clear sky's). Filaments along the body, a plume over its base and
+    /// a ridge beside it widen the silhouette, and the image ranges read short for many frames
+    /// together.
     pub cluttered_range_fraction: f32,
 }
 

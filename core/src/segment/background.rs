@@ -55,6 +55,8 @@ pub struct Background {
     ///
     /// [`corridor`]: crate::segment::corridor
     corridor: Option<Corridor>,
+    /// Whether [`Background::estimate_terrain`] found terrain in the chip.
+    terrain: bool,
 }
 
 /// The interpolation along one axis at every pixel of the chip, tabulated once per chip so that
@@ -152,6 +154,7 @@ impl Background {
             rows: AxisTable::new(),
             sigma: MIN_SIGMA,
             corridor: None,
+            terrain: false,
         }
     }
 
@@ -180,6 +183,7 @@ impl Background {
         }
         self.sigma = self.noise_sigma_of(chip);
         self.corridor = None;
+        self.terrain = false;
     }
 
     /// Looks for terrain entering the chip from its lower edge ([`Horizon::find`], against the
@@ -212,6 +216,7 @@ impl Background {
         if !horizon.find(chip, *sky, self.sigma, (bottom, BACKGROUND_TILE), config) {
             return false;
         }
+        self.terrain = true;
         let margin = usize::from(config.margin_px);
         let sky_pixel = |x: usize, y: usize| !horizon.covers(x, y, margin);
         let mut histogram = Histogram::new();
@@ -271,6 +276,12 @@ impl Background {
     /// sky beside it is cluttered beyond what the tiles follow.
     pub fn follows_corridor(&self) -> bool {
         self.corridor.is_some()
+    }
+
+    /// Whether terrain enters the chip from its lower edge ([`Background::estimate_terrain`],
+    /// since the last [`Background::estimate`]).
+    pub fn has_terrain(&self) -> bool {
+        self.terrain
     }
 
     /// Re-estimates the tiles that `region` overlaps from their pixels outside it, and keeps
@@ -1119,7 +1130,9 @@ mod tests {
         let (on_terrain, above_ridge) = ((40.0, 120.0), (40.0, 96.0));
         assert!(bg.at(on_terrain.0, on_terrain.1) < 100.0);
         assert!(bg.at(above_ridge.0, above_ridge.1) < 140.0);
+        assert!(!bg.has_terrain());
         assert!(bg.estimate_terrain(&chip, &TerrainConfig::DEFAULT));
+        assert!(bg.has_terrain());
         for (x, y) in [on_terrain, above_ridge, (100.0, 20.0)] {
             let sky = bg.at(x, y);
             assert!((sky - 150.0).abs() < 2.0, "sky at ({x},{y}) is {sky}");
@@ -1127,6 +1140,7 @@ mod tests {
         // Found again by a fresh estimate only when asked.
         bg.estimate(&chip);
         assert!(bg.at(on_terrain.0, on_terrain.1) < 100.0);
+        assert!(!bg.has_terrain());
     }
 
     /// The per-pixel tables are a cache: the background they give is bit for bit the direct

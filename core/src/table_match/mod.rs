@@ -177,12 +177,20 @@ pub struct Measurement {
     /// The grey-level fit from the match, where it ran and converged inside its bounds.
     pub fitted: Option<GreyFitted>,
     /// Whether the sky beside the body is cluttered: the detection's sky follows the body's
-    /// corridor ([`Background::follows_corridor`]), as it does among clouds, filaments and
-    /// terrain.
+    /// corridor ([`Background::follows_corridor`]), as it does among clouds and filaments.
     pub cluttered_sky: bool,
+    /// Whether terrain enters the chip ([`Background::has_terrain`]).
+    pub terrain: bool,
 }
 
 impl Measurement {
+    /// Whether the body is seen among clutter: a cluttered sky beside it, or terrain in the
+    /// chip. There the image range reads short for many frames together (a filament along the
+    /// body, a ridge beside it widen the silhouette).
+    pub fn among_clutter(&self) -> bool {
+        self.cluttered_sky || self.terrain
+    }
+
     /// The slant range measured from the image, m: where the range was not given, the
     /// grey-level fit's scale's (the match's where the fit held it:
     /// `GreyFitConfig::wide_body_sigmas`), else the
@@ -372,6 +380,7 @@ impl<const MASK_WORDS: usize> TableMatch<MASK_WORDS> {
             matched,
             fitted: None,
             cluttered_sky: background.follows_corridor(),
+            terrain: background.has_terrain(),
         }
     }
 
