@@ -198,6 +198,21 @@ impl<'a> ChipView<'a> {
         }
     }
 
+    /// The samples of row `y` in columns `x_start..x_end` (clipped to the chip) of an 8-bit
+    /// chip; None for a 16-bit chip or where that holds no sample.
+    #[inline]
+    pub fn gray8_span(&self, y: usize, x_start: usize, x_end: usize) -> Option<&'a [u8]> {
+        let x_end = x_end.min(self.width);
+        if y >= self.height || x_start >= x_end {
+            return None;
+        }
+        let start = y * self.stride;
+        match self.samples {
+            Samples::Gray8(d) => d.get(start + x_start..start + x_end),
+            Samples::Gray16(_) => None,
+        }
+    }
+
     /// The lowest and highest sample of row `y` in columns `x_start..x_end` (clipped to the
     /// chip); None where that holds no sample.
     #[inline]
