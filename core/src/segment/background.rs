@@ -70,6 +70,9 @@ struct AxisTable {
     len: usize,
     /// Each tile's centre along the axis, px ([`tile_centre`]).
     centres: [f32; MAX_TILES_PER_SIDE],
+    /// The tiles and the axis's size the table holds (None before the first chip): a mount's
+    /// chips are all of one size, so the table is worked out once.
+    filled_for: Option<(usize, usize)>,
 }
 
 // Tile indices are stored as u8.
@@ -83,11 +86,17 @@ impl AxisTable {
             w: [0.0; MAX_CHIP_SIDE],
             len: 0,
             centres: [0.0; MAX_TILES_PER_SIDE],
+            filled_for: None,
         }
     }
 
-    /// Tabulates [`axis_weights`] for the pixels of an axis of `size` px and `tiles` tiles.
+    /// Tabulates [`axis_weights`] for the pixels of an axis of `size` px and `tiles` tiles
+    /// (nothing to do where it holds them already).
     fn fill(&mut self, tiles: usize, size: usize) {
+        if self.filled_for == Some((tiles, size)) {
+            return;
+        }
+        self.filled_for = Some((tiles, size));
         for (t, centre) in self.centres.iter_mut().enumerate().take(tiles) {
             *centre = tile_centre(t, size);
         }
@@ -1179,18 +1188,29 @@ mod tests {
         assert!(!bg.has_terrain());
     }
 
-    /// The per-pixel tables are a cache: the background they give is bit for bit the direct
-    /// interpolation between tile centres, at pixels and between them; a row walked segment by
-    /// segment gives the same to rounding.
+    /// The per-pixel tables are a cache, kept from chip to chip while the size stays: the
+    /// background they give is bit for bit the direct interpolation between tile centres, at
+    /// pixels and between them; a row walked segment by segment gives the same to rounding.
     #[test]
     fn tabulated_interpolation_is_the_direct_one() {
         let mut data = [0u8; 300 * 300];
         for (i, v) in data.iter_mut().enumerate() {
             *v = ((i * 7919) % 251) as u8 / 4 + (i / 300 / 9) as u8;
         }
-        for (w, h) in [(1, 1), (5, 300), (32, 33), (100, 65), (256, 256), (300, 97)] {
+        // One model for chips of changing sizes, some again after others: its tables follow.
+        let mut bg = Background::new();
+        for (w, h) in [
+            (1, 1),
+            (5, 300),
+            (32, 33),
+            (100, 65),
+            (256, 256),
+            (256, 256),
+            (300, 97),
+            (32, 33),
+            (256, 256),
+        ] {
             let chip = ChipView::gray8(&data, w, h, 300, 0, 0).unwrap();
-            let mut bg = Background::new();
             bg.estimate(&chip);
             let column = |t: usize, y0: usize, y1: usize, wy: f32| {
                 bg.level(t, y0) * (1.0 - wy) + bg.level(t, y1) * wy
