@@ -8,7 +8,10 @@
 //! and the line of sight), `sin(aspect) = L_image R / (f L)`. A fractional error `e` of the
 //! apparent length moves the aspect as a fractional error `e` of the range does, so both are
 //! carried through together by solving the pose again at `R (1 ± e)`, which also holds near a
-//! broadside view where the aspect's sensitivity has no linear form. The sigmas are those of the
+//! broadside view where the aspect's sensitivity has no linear form. Without a range sensor among
+//! clutter two more fractions join them (`Pipeline`'s result): the image range's systematic error
+//! there ([`UncertaintyConfig::cluttered_range_fraction`], also in `tz_sd_m`), and the fraction by
+//! which the frame's own image range disagrees with the range taken. The sigmas are those of the
 //! chosen candidate, not counting the choice between the mirror candidates (the results format's
 //! definition): `yaw_resolved` says how sure that choice is.
 //!
