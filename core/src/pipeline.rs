@@ -667,7 +667,7 @@ impl<
     /// filters do not know.
     fn range_sd_m(&self, measured: &Measurement, estimate: &Estimate) -> Option<f32> {
         let sd = estimate.range_sd_m?;
-        if !measured.among_clutter() || measured.hypothesis.sensor_range_m().is_some() {
+        if !measured.image_range_among_clutter() {
             return Some(sd);
         }
         let systematic = self.config.uncertainty.cluttered_range_fraction * estimate.range_m;
@@ -708,12 +708,8 @@ impl<
         // filament along the body, a plume over its base): its aspect is that much less sure.
         // (On a clear sky the disagreement is the image range's own noise, which the length's
         // and the range's sigmas already count.)
-        let disagreement = match (
-            measured.among_clutter(),
-            measured.hypothesis.sensor_range_m(),
-            measured.image_range_m(),
-        ) {
-            (true, None, Some(image_range_m)) => {
+        let disagreement = match measured.image_range_m() {
+            Some(image_range_m) if measured.image_range_among_clutter() => {
                 libm::fabsf(image_range_m - estimate.range_m) / estimate.range_m
             }
             _ => 0.0,

@@ -168,11 +168,13 @@ impl<const C: usize> Outline<C> {
             let fin = fin.zip(depth_sign).map(|((sin, cos), d)| (d * sin, cos));
             outline.cover(t, fin);
         });
+        let mut previous = outline.column(0);
         for j in 1..columns {
-            let repeats = outline.column(j) == outline.column(j - 1);
+            let column = outline.column(j);
             if let Some(slot) = outline.repeats.get_mut(j) {
-                *slot = repeats;
+                *slot = column == previous;
             }
+            previous = column;
         }
         Some(outline)
     }

@@ -944,13 +944,12 @@ fn tile_median(
     let (x0, y0, x1, y1) = rect;
     let shift = if chip.is_16bit() { 8 } else { 0 };
     let coarse = &mut histogram.0;
-    let keep_all = keep.is_none();
-    let keep = |x: usize, y: usize| keep.as_ref().is_none_or(|keep| keep(x, y));
+    let kept = |x: usize, y: usize| keep.as_ref().is_none_or(|keep| keep(x, y));
     for y in y0..y1 {
-        match chip.gray8_span(y, x0, x1) {
-            Some(bytes) if keep_all => count_bytes(bytes, coarse),
+        match (chip.gray8_span(y, x0, x1), &keep) {
+            (Some(bytes), None) => count_bytes(bytes, coarse),
             _ => chip.for_each_in_span(y, x0, x1, |x, v| {
-                if keep(x, y) {
+                if kept(x, y) {
                     coarse[usize::from((v >> shift) as u8)] += 1;
                 }
             }),
@@ -984,7 +983,7 @@ fn tile_median(
         let mut fine = [0u32; 256];
         for y in y0..y1 {
             chip.for_each_in_span(y, x0, x1, |x, v| {
-                if usize::from(v >> 8) == bin && keep(x, y) {
+                if usize::from(v >> 8) == bin && kept(x, y) {
                     fine[usize::from(v as u8)] += 1;
                 }
             });

@@ -191,6 +191,13 @@ impl Measurement {
         self.cluttered_sky || self.terrain
     }
 
+    /// Whether the frame's range comes from the image (no range sensor) among clutter: there
+    /// its error is one the filters do not know
+    /// ([`crate::uncertainty::UncertaintyConfig::cluttered_range_fraction`]).
+    pub fn image_range_among_clutter(&self) -> bool {
+        self.among_clutter() && self.hypothesis.sensor_range_m().is_none()
+    }
+
     /// The slant range measured from the image, m: where the range was not given, the
     /// grey-level fit's scale's (the match's where the fit held it:
     /// `GreyFitConfig::wide_body_sigmas`), else the
